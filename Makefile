@@ -1,0 +1,30 @@
+# depsim: two commands set up a fresh machine.
+#   make demo   create .venv, install, compile and run examples/intelsat5.dep
+#   make test   create .venv, install, run the test suite
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed
+
+.PHONY: demo test install clean
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/pip install --quiet --upgrade pip
+	$(BIN)/pip install --quiet -e '.[test]'
+	touch $(STAMP)
+
+install: $(STAMP)
+
+demo: $(STAMP)
+	mkdir -p results
+	$(BIN)/depsim check examples/intelsat5.dep
+
+# pytest exits 5 when it collects nothing: an empty suite is a failure, not a pass.
+test: $(STAMP)
+	$(BIN)/python -m pytest; status=$$?; \
+	if [ $$status -eq 5 ]; then echo "error: no tests were collected" >&2; exit 1; fi; \
+	exit $$status
+
+clean:
+	rm -rf $(VENV) results build *.egg-info

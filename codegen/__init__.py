@@ -1,0 +1,1 @@
+"""depsim.codegen"""

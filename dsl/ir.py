@@ -1,0 +1,373 @@
+"""The checked model IR: what `dsl` hands to `codegen`.
+
+Flat, frozen, indexed by position (like MuJoCo's compiled mjModel): bodies, beams, hinges,
+sliders, cables and outputs are tuples, and every reference between them is an index. Every
+numeric attribute is an `Expr` tree over the parameter vector (`ParamRef`), already in SI
+units; nothing here knows about lark or sympy. `codegen` turns `Expr` trees into sympy
+expressions node by node.
+
+Conventions (documented for users in docs/language.md):
+* A rigid body's coordinates are (x, y, phi) of its centre of mass; phi is measured from +x,
+  counter-clockwise. Points are given in body coordinates relative to the centre of mass.
+* A `bar` of length L has points `a` at (-L/2, 0) and `b` at (+L/2, 0).
+* A beam of length L has end points `a` (s = 0) and `b` (s = L); its angle at an end is the
+  angle of the beam tangent there. Undeformed, the beam lies along its tangent.
+* The ground has angle 0 and a point `origin` at (0, 0), plus any declared points.
+* Hinge angle: theta = sign * (angle(b) - angle(a)) + offset, where a and b are the two
+  members the hinge joins, in the order written (`joins A to B`).
+* Slider displacement: s = axis_a . (r_b - r_a), axis a unit vector fixed in member a; the
+  slider also keeps angle(b) - angle(a) at its initial value.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import Enum
+
+
+@dataclass(frozen=True, slots=True)
+class Span:
+    """A source range, 1-based lines and columns; end is exclusive."""
+
+    file: str
+    line: int
+    col: int
+    end_line: int
+    end_col: int
+
+
+# ---------------------------------------------------------------------------------------------
+# Dimensions (SI base: mass, length, time, plus plane angle so that N*m/rad differs from N*m)
+# ---------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class Dim:
+    """Exponents of kg, m, s, rad. Dimensionless is Dim()."""
+
+    mass: int = 0
+    length: int = 0
+    time: int = 0
+    angle: int = 0
+
+
+# ---------------------------------------------------------------------------------------------
+# Expressions. Values are SI. Constant expressions contain only Num, ParamRef, Unary, Binary,
+# Call; state expressions (outputs) may also contain the state references below.
+# ---------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class Num:
+    value: float
+
+
+@dataclass(frozen=True, slots=True)
+class ParamRef:
+    """Entry `index` of the run-time parameter vector (Model.params[index])."""
+
+    index: int
+
+
+@dataclass(frozen=True, slots=True)
+class Unary:
+    op: str  # "-"
+    arg: Expr
+
+
+@dataclass(frozen=True, slots=True)
+class Binary:
+    op: str  # "+", "-", "*", "/", "^"
+    left: Expr
+    right: Expr
+
+
+# Functions allowed in expressions; the checker rejects anything else.
+FUNCTIONS: dict[str, int] = {
+    "sin": 1, "cos": 1, "tan": 1, "asin": 1, "acos": 1, "atan": 1, "atan2": 2,
+    "sinh": 1, "cosh": 1, "tanh": 1, "sqrt": 1, "exp": 1, "log": 1, "abs": 1,
+    "min": 2, "max": 2,
+}
+
+
+@dataclass(frozen=True, slots=True)
+class Call:
+    func: str  # a key of FUNCTIONS
+    args: tuple[Expr, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class Time:
+    """Simulation time t (s)."""
+
+
+@dataclass(frozen=True, slots=True)
+class BodyCoord:
+    """A rigid body's coordinate or its rate: coord in x, y, phi, vx, vy, omega."""
+
+    body: int
+    coord: str
+
+
+@dataclass(frozen=True, slots=True)
+class PointCoord:
+    """World position (axis x or y) or velocity (vx, vy) of a point of a member."""
+
+    member: Member
+    point: str
+    axis: str
+
+
+@dataclass(frozen=True, slots=True)
+class HingeAngle:
+    hinge: int
+    rate: bool = False  # True: d(theta)/dt
+
+
+@dataclass(frozen=True, slots=True)
+class SliderPosition:
+    slider: int
+    rate: bool = False
+
+
+@dataclass(frozen=True, slots=True)
+class BeamQuantity:
+    """A beam quantity: `chord` (angle of the chord a->b from +x, rad) or `tip_deflection`
+    (signed distance of end b from the tangent line at end a, counter-clockwise positive, m)."""
+
+    beam: int
+    kind: str
+
+
+Expr = Num | ParamRef | Unary | Binary | Call | Time | BodyCoord | PointCoord | HingeAngle \
+    | SliderPosition | BeamQuantity
+
+
+# ---------------------------------------------------------------------------------------------
+# Model elements
+# ---------------------------------------------------------------------------------------------
+
+
+class ParamKind(Enum):
+    DECLARED = "param"  # a `param` statement
+    ATTRIBUTE = "attribute"  # an element attribute given as a plain quantity, e.g. yoke.mass
+
+
+@dataclass(frozen=True, slots=True)
+class Param:
+    """One entry of the run-time parameter vector.
+
+    name: `kc` for a declared param, `h2.friction` for an attribute.
+    default: SI value. dim: its dimension. unit: SI unit text for display, e.g. "N*m/rad".
+    """
+
+    name: str
+    default: float
+    dim: Dim
+    unit: str
+    kind: ParamKind
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class DerivedName:
+    """A name that is not in the parameter vector because its value is an expression of
+    params (a param defined from other params, or an attribute written as an expression).
+    Kept so `--set` can say which param to set instead."""
+
+    name: str
+    depends_on: tuple[str, ...]
+    span: Span
+
+
+class MemberKind(Enum):
+    GROUND = "ground"
+    BODY = "body"
+    BEAM = "beam"
+
+
+@dataclass(frozen=True, slots=True)
+class Member:
+    """A reference to the ground, a rigid body (index into Model.bodies) or a beam (index into
+    Model.beams). index is 0 for the ground."""
+
+    kind: MemberKind
+    index: int
+
+
+@dataclass(frozen=True, slots=True)
+class Point:
+    """A named point in body coordinates (m), relative to the centre of mass."""
+
+    name: str
+    x: Expr
+    y: Expr
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class Ground:
+    points: tuple[Point, ...]  # always includes `origin` at (0, 0)
+
+
+@dataclass(frozen=True, slots=True)
+class Body:
+    """A planar rigid body. kind "bar" (points a, b from length) or "body"."""
+
+    name: str
+    kind: str
+    mass: Expr  # kg
+    inertia: Expr  # kg*m^2 about the centre of mass
+    length: Expr | None  # m, bars only
+    points: tuple[Point, ...]
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class Beam:
+    """A flexible planar beam with end points `a` and `b`."""
+
+    name: str
+    length: Expr  # m
+    EI: Expr  # N*m^2
+    EA: Expr  # N
+    mass_per_length: Expr  # kg/m
+    elements: int  # structural: compile-time
+    damping: Expr | None  # stiffness-proportional damping coefficient (s), optional
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class Attachment:
+    member: Member
+    point: str  # point name on that member ("a", "b", "origin", or a declared point)
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class Hinge:
+    """A revolute joint. Optional attributes are None when absent.
+
+    theta = sign * (angle(b) - angle(a)) + offset                      (rad)
+    drive spring torque on theta: preload - stiffness * theta           (N*m)
+    Coulomb friction: -friction * tanh(theta_rate / slip_rate)          (N*m)
+    viscous damping: -damping * theta_rate                              (N*m)
+    latch: locks when theta first reaches `latch` (rad); rigid unless latch_stiffness given.
+    stops: one-sided limits stop_min <= theta <= stop_max.
+    """
+
+    name: str
+    a: Attachment
+    b: Attachment
+    sign: int  # +1 or -1
+    offset: Expr  # rad
+    stiffness: Expr | None  # N*m/rad
+    preload: Expr | None  # N*m
+    friction: Expr | None  # N*m (kinetic)
+    static_friction: Expr | None  # N*m (stick-slip model when given)
+    slip_rate: Expr  # rad/s, tanh regularisation (default 1e-3 rad/s)
+    damping: Expr | None  # N*m*s/rad
+    latch: Expr | None  # rad
+    latch_stiffness: Expr | None  # N*m/rad
+    latch_damping: Expr | None  # N*m*s/rad
+    stop_min: Expr | None  # rad
+    stop_max: Expr | None  # rad
+    initial_angle: Expr  # rad
+    initial_rate: Expr  # rad/s
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class Slider:
+    """A prismatic joint: point b of member b slides along `axis` (fixed in member a) through
+    point a of member a; the relative angle stays at its initial value."""
+
+    name: str
+    a: Attachment
+    b: Attachment
+    axis: tuple[Expr, Expr]  # direction in member a's frame (normalised by codegen)
+    initial_position: Expr  # m
+    initial_rate: Expr  # m/s
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class CableTerm:
+    hinge: int
+    coefficient: Expr  # dimensionless
+
+
+@dataclass(frozen=True, slots=True)
+class Cable:
+    """A closed cable loop: V = stiffness/2 * (sum coefficient_k * theta_k)^2."""
+
+    name: str
+    stiffness: Expr  # N*m/rad
+    terms: tuple[CableTerm, ...]
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class Output:
+    name: str
+    expr: Expr
+    dim: Dim
+    unit: str  # SI unit text, e.g. "rad", "m"
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class Simulation:
+    t_end: float  # s
+    tol: float  # dimensionless relative/absolute integration tolerance
+    dt_out: float  # s
+
+
+class JointKind(Enum):
+    HINGE = "hinge"
+    SLIDER = "slider"
+
+
+@dataclass(frozen=True, slots=True)
+class Placement:
+    """One step of the initial assembly: joint `joint` (of `kind`) places member `child` from
+    the already placed member `parent`, using the joint's initial angle or displacement.
+    Joints not used for placement close kinematic loops (Model.loop_joints)."""
+
+    kind: JointKind
+    joint: int
+    parent: Member
+    child: Member
+
+
+@dataclass(frozen=True, slots=True)
+class Diagnostic:
+    """A warning the checker found (errors never reach the IR)."""
+
+    code: str
+    message: str
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class Model:
+    """A checked model. `params` is the run-time parameter vector's layout."""
+
+    name: str
+    description: str
+    source_file: str
+    source_sha256: str
+    params: tuple[Param, ...]
+    derived: tuple[DerivedName, ...]
+    gravity: tuple[Expr, Expr]  # m/s^2; (Num(0), Num(0)) when the model has none
+    ground: Ground
+    bodies: tuple[Body, ...]
+    beams: tuple[Beam, ...]
+    hinges: tuple[Hinge, ...]
+    sliders: tuple[Slider, ...]
+    cables: tuple[Cable, ...]
+    outputs: tuple[Output, ...]
+    simulation: Simulation
+    placements: tuple[Placement, ...]  # assembly order from the ground (a spanning forest)
+    loop_joints: tuple[tuple[JointKind, int], ...]  # joints closing kinematic loops
+    warnings: tuple[Diagnostic, ...]
