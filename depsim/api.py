@@ -1,0 +1,131 @@
+"""The public Python API: load a model, compile it, run it.
+
+    import depsim
+    model = depsim.load("examples/intelsat5.dep")
+    sim = model.compile(target="numpy")
+    result = sim.run(set={"h2.friction": 0.7, "h1.preload": "1.5 N*m"}, t_end=30.0)
+    result.to_csv("intelsat5.csv")
+
+One compile serves every run: a run only changes the parameter vector.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import os
+from pathlib import Path
+from typing import Mapping
+
+import numpy as np
+
+from depsim import __version__
+from depsim.dsl import ir, load_model, parse_quantity
+from depsim.errors import UsageError
+
+
+def load(path: str | os.PathLike) -> Model:
+    """Parse and check a `.dep` file. Raises `depsim.dsl.ModelError` on a bad model."""
+    return Model(load_model(path), Path(path))
+
+
+@dataclasses.dataclass(frozen=True)
+class Model:
+    """A checked model (the IR) and where it came from."""
+
+    ir: ir.Model
+    path: Path
+
+    @property
+    def name(self) -> str:
+        return self.ir.name
+
+    def with_elements(self, elements: Mapping[str, int]) -> Model:
+        """The same model with other beam element counts, e.g. {"link1": 8}."""
+        beams = {b.name: b for b in self.ir.beams}
+        for name, count in elements.items():
+            if name not in beams:
+                known = ", ".join(beams) or "none"
+                raise UsageError(f"--elements: unknown beam '{name}' (beams in this model: {known})")
+            if not isinstance(count, int) or isinstance(count, bool) or count < 1:
+                raise UsageError(f"--elements: element count for '{name}' must be a positive integer")
+        new_beams = tuple(dataclasses.replace(b, elements=elements.get(b.name, b.elements))
+                          for b in self.ir.beams)
+        return Model(dataclasses.replace(self.ir, beams=new_beams), self.path)
+
+    def compile(self, target: str = "numpy", out_dir: str | os.PathLike | None = None) -> Simulator:
+        """Generate code for `target` ("numpy") and load it. Artifacts are cached under
+        `out_dir` or the user cache, keyed by the model hash, element counts and depsim version."""
+        if target != "numpy":
+            raise UsageError(f"unknown target '{target}' (available: numpy)")
+        from depsim.codegen import compile_numpy, load_generated
+
+        directory = Path(out_dir) if out_dir is not None else _cache_dir(self.ir, target)
+        path = compile_numpy(self.ir, directory)
+        return Simulator(self, load_generated(path), target)
+
+
+def _cache_dir(model: ir.Model, target: str) -> Path:
+    root = Path(os.environ.get("DEPSIM_CACHE") or
+                Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "depsim")
+    elements = ",".join(f"{b.name}={b.elements}" for b in model.beams)
+    key = hashlib.sha256(f"{model.source_sha256}|{elements}|{__version__}|{target}".encode())
+    return root / f"{model.name}-{key.hexdigest()[:16]}"
+
+
+class Simulator:
+    """A compiled model: runs it for any parameter vector."""
+
+    def __init__(self, model: Model, module, target: str):
+        self.model = model
+        self.module = module
+        self.target = target
+        self.parameter_names: tuple[str, ...] = tuple(module.PARAMETERS)
+        self.defaults = np.array(module.PARAMETER_DEFAULTS, dtype=float)
+
+    def parameters(self, set: Mapping[str, float | str] | None = None) -> np.ndarray:
+        """The parameter vector: defaults with `set` applied. Values are SI floats or text with
+        units ("1.5 N*m"), checked against the parameter's dimension."""
+        p = self.defaults.copy()
+        by_name = {m.name: i for i, m in enumerate(self.model.ir.params)}
+        derived = {d.name: d for d in self.model.ir.derived}
+        for name, value in (set or {}).items():
+            if name not in by_name:
+                raise UsageError(_unknown_parameter(name, by_name, derived))
+            p[by_name[name]] = _parameter_value(self.model.ir.params[by_name[name]], value)
+        return p
+
+    def run(self, set: Mapping[str, float | str] | None = None, t_end: float | None = None,
+            dt_out: float | None = None, tol: float | None = None, progress: bool = False):
+        """Simulate with parameters `set` applied; returns a `depsim.runtime.Result`."""
+        from depsim.runtime import simulate
+
+        return simulate(self.module, self.parameters(set), t_end=t_end, dt_out=dt_out,
+                        tol=tol, progress=progress)
+
+
+def _unknown_parameter(name: str, by_name, derived) -> str:
+    import difflib
+
+    if name in derived:
+        deps = ", ".join(f"'{d}'" for d in derived[name].depends_on) or "its params"
+        return f"'{name}' is computed from {deps} in the model; set {deps} instead"
+    close = difflib.get_close_matches(name, list(by_name) + list(derived), n=1)
+    hint = f"; did you mean '{close[0]}'?" if close else ""
+    return f"unknown parameter '{name}'{hint} (`depsim check MODEL` lists them)"
+
+
+def _parameter_value(param: ir.Param, value: float | str) -> float:
+    if isinstance(value, str):
+        try:
+            number, dim = parse_quantity(value)
+        except ValueError as exc:
+            raise UsageError(f"bad value for '{param.name}': {exc}") from None
+        if dim != param.dim and not (dim == ir.Dim() and param.dim == ir.Dim(angle=1)):
+            raise UsageError(f"'{param.name}' needs a value in {param.unit or 'no unit'}; "
+                             f"'{value}' has another dimension")
+        value = number
+    value = float(value)
+    if not np.isfinite(value):
+        raise UsageError(f"bad value for '{param.name}': {value} is not a finite number")
+    return value
