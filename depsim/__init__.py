@@ -7,6 +7,13 @@
 
 __version__ = "0.1.0"
 
-from depsim.api import Model, Simulator, load  # noqa: E402  (the version comes first)
-
 __all__ = ["Model", "Simulator", "load", "__version__"]
+
+
+def __getattr__(name: str):
+    # The facade is imported on first use, so `import depsim.dsl` stays independent of it.
+    if name in ("Model", "Simulator", "load"):
+        from depsim import api
+
+        return getattr(api, name)
+    raise AttributeError(f"module 'depsim' has no attribute '{name}'")
