@@ -342,11 +342,15 @@ class Placement:
 
 @dataclass(frozen=True, slots=True)
 class Diagnostic:
-    """A warning the checker found (errors never reach the IR)."""
+    """A warning the checker found (errors never reach the IR; `dsl.ModelError` carries them
+    in the same type). code "E0xx" is an error, "W0xx" a warning. hint: one suggestion, e.g.
+    "did you mean 'panel3'?"; notes: extra facts, e.g. "first defined at 12:5"."""
 
     code: str
     message: str
     span: Span
+    hint: str = ""
+    notes: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)

@@ -1,0 +1,208 @@
+"""Element attributes: which each kind takes, reading a block, and the parameter vector.
+
+An attribute written as a plain constant (`mass = 2.222 kg`) becomes an entry of the
+parameter vector named `element.attribute` (`yoke.mass`) and the element refers to it by
+ParamRef, so it can be changed at run time. An attribute written with parameters
+(`inertia = m * L^2 / 12`) keeps its expression and is recorded as a DerivedName.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .errors import Reporter, at, did_you_mean, join_names
+from .evaluate import EvaluationError, Typed, evaluate, param_indices
+from .expressions import Context, ExprResolver
+from .ir import DerivedName, Dim, Expr, Param, ParamKind, ParamRef, Span
+from .syntax import AstExpr, AttributeItem, Block, NumberLit, PointItem, Quantity, VectorLit
+from .units import ANGLE, LENGTH, MASS, NONE, TIME, TORQUE, describe, dim_div, si_text
+
+
+@dataclass(frozen=True, slots=True)
+class AttrSpec:
+    """An attribute of an element kind. dim None: read by dedicated code (angle, angles,
+    elements, axis). limit: "positive", "nonnegative" or ""."""
+
+    name: str
+    dim: Dim | None
+    required: bool = False
+    limit: str = ""
+
+
+_STIFFNESS = Dim(mass=1, length=2, time=-2, angle=-1)
+_DAMPING = Dim(mass=1, length=2, time=-1, angle=-1)
+
+SPECS: dict[str, tuple[AttrSpec, ...]] = {
+    "bar": (AttrSpec("length", LENGTH, True, "positive"), AttrSpec("mass", MASS, True, "positive"),
+            AttrSpec("inertia", Dim(mass=1, length=2), True, "positive")),
+    "body": (AttrSpec("mass", MASS, True, "positive"),
+             AttrSpec("inertia", Dim(mass=1, length=2), True, "positive")),
+    "beam": (AttrSpec("length", LENGTH, True, "positive"),
+             AttrSpec("EI", Dim(mass=1, length=3, time=-2), True, "positive"),
+             AttrSpec("EA", Dim(mass=1, length=1, time=-2), True, "positive"),
+             AttrSpec("mass_per_length", Dim(mass=1, length=-1), True, "positive"),
+             AttrSpec("elements", None, True), AttrSpec("damping", TIME, False, "nonnegative")),
+    "hinge": (AttrSpec("angle", None), AttrSpec("stiffness", _STIFFNESS, False, "nonnegative"),
+              AttrSpec("preload", TORQUE), AttrSpec("friction", TORQUE, False, "nonnegative"),
+              AttrSpec("static_friction", TORQUE, False, "nonnegative"),
+              AttrSpec("slip_rate", Dim(angle=1, time=-1), False, "positive"),
+              AttrSpec("damping", _DAMPING, False, "nonnegative"), AttrSpec("latch", ANGLE),
+              AttrSpec("latch_stiffness", _STIFFNESS, False, "positive"),
+              AttrSpec("latch_damping", _DAMPING, False, "nonnegative"),
+              AttrSpec("stop_min", ANGLE), AttrSpec("stop_max", ANGLE)),
+    "slider": (AttrSpec("axis", None, True),),
+    "cable": (AttrSpec("stiffness", _STIFFNESS, True, "nonnegative"),
+              AttrSpec("angles", None, True)),
+    "simulate": (AttrSpec("t_end", TIME, False, "positive"),
+                 AttrSpec("tol", NONE, False, "positive"),
+                 AttrSpec("dt_out", TIME, False, "positive")),
+    "ground": (),
+}
+_POINTS_ALLOWED = ("bar", "body", "ground")
+
+
+def read_block(block: Block | None, kind: str, owner: str, owner_span: Span,
+               report: Reporter) -> dict[str, AttributeItem]:
+    """The block's attributes by name, after reporting unknown, repeated and missing ones.
+    Points are left to the caller."""
+    specs = {spec.name: spec for spec in SPECS[kind]}
+    found: dict[str, AttributeItem] = {}
+    for item in block.items if block is not None else ():
+        if isinstance(item, PointItem):
+            if kind not in _POINTS_ALLOWED:
+                hint = "a beam's points are its ends a and b" if kind == "beam" else ""
+                report.error("E020", f"{owner} cannot have points", item.span, hint=hint)
+            continue
+        name = item.name.text if item.sub is None else f"{item.name.text}.{item.sub.text}"
+        if name not in specs:
+            hint = did_you_mean(name, specs) or f"{owner} takes: {join_names(specs)}" \
+                if specs else f"{owner} takes only points"
+            report.error("E020", f"unknown attribute '{name}' for {owner}", item.name.span,
+                         hint=hint)
+        elif name in found:
+            report.error("E022", f"attribute '{name}' of {owner} is given twice", item.name.span,
+                         notes=[f"first given at {at(found[name].span)}"])
+        else:
+            found[name] = item
+    for spec in SPECS[kind]:
+        if spec.required and spec.name not in found:
+            report.error("E021", f"{owner} is missing the attribute '{spec.name}'", owner_span,
+                         hint=_add_hint(spec))
+    return found
+
+
+def _add_hint(spec: AttrSpec) -> str:
+    examples = {"elements": "elements = 4", "axis": "axis = (1, 0)",
+                "angles": "angles = h1 - h2"}
+    if spec.dim is None:
+        return f"add: {examples[spec.name]}"
+    return f"add: {spec.name} = 1 {si_text(spec.dim)}"
+
+
+class ParamVector:
+    """The run-time parameter vector being laid out: declared params, then attributes."""
+
+    def __init__(self) -> None:
+        self.declared: list[Param] = []
+        self.attributes: list[Param] = []
+        self.derived: list[DerivedName] = []
+
+    def entries(self) -> list[Param]:
+        return self.declared + self.attributes
+
+    def defaults(self) -> list[float]:
+        return [p.default for p in self.entries()]
+
+    def add(self, param: Param) -> ParamRef:
+        if param.kind is ParamKind.DECLARED:
+            assert not self.attributes, "declared params come first"
+            self.declared.append(param)
+        else:
+            self.attributes.append(param)
+        return ParamRef(len(self.declared) + len(self.attributes) - 1)
+
+    def add_derived(self, name: str, expr: Expr, span: Span) -> None:
+        entries = self.entries()
+        depends = tuple(entries[i].name for i in sorted(param_indices(expr)))
+        self.derived.append(DerivedName(name, depends, span))
+
+
+class AttributeReader:
+    """Resolves attribute values: dimension checks, parameter entries, range checks."""
+
+    def __init__(self, resolver: ExprResolver, vector: ParamVector) -> None:
+        self.resolver = resolver
+        self.vector = vector
+        self.report: Reporter = resolver.report
+
+    def scalar(self, item: AttributeItem, spec: AttrSpec, entry: str) -> Expr | None:
+        """A scalar attribute as a parameter entry named `entry` (or a derived expression)."""
+        assert spec.dim is not None
+        typed = self.quantity(item.value, spec.dim, spec.name)
+        if typed is None:
+            return None
+        expr = self.enter(entry, typed.expr, spec.dim, item.value.span)
+        if expr is not None and spec.limit:
+            self.check_limit(expr, spec.dim, spec.limit, spec.name, item.value.span)
+        return expr
+
+    def enter(self, entry: str, expr: Expr, dim: Dim, span: Span) -> Expr | None:
+        """A parameter entry for a plain constant, or a derived name for an expression."""
+        if param_indices(expr):
+            self.vector.add_derived(entry, expr, span)
+            return expr
+        value = self.value(expr, span, entry)
+        if value is None:
+            return None
+        return self.vector.add(Param(entry, value, dim, si_text(dim), ParamKind.ATTRIBUTE, span))
+
+    def quantity(self, node: AstExpr | VectorLit, dim: Dim, what: str) -> Typed | None:
+        """A scalar constant of dimension `dim`."""
+        if isinstance(node, VectorLit):
+            self.report.error("E023", f"{what} takes one value, not a vector", node.span)
+            return None
+        typed = self.resolver.resolve(node, Context.CONSTANT)
+        if typed is None or not self.expect(typed, dim, what, node):
+            return None
+        return typed
+
+    def expect(self, typed: Typed, dim: Dim, what: str, node) -> bool:
+        """Report unless `typed` has dimension `dim` (a plain number counts as radians)."""
+        if typed.dim == dim or (dim == ANGLE and typed.dim == NONE):
+            return True
+        example = self._example(node, dim)
+        if typed.dim == NONE:
+            self.report.error("E031", f"{what} needs a unit, e.g. {example}", node.span)
+            return False
+        hint = f"e.g. {example}" if dim != NONE else "remove the unit"
+        if dim_div(dim, typed.dim) == Dim(angle=-1):
+            hint = f"a {describe(dim).split(' (')[0]} has '/rad' in its unit: e.g. {example}"
+        self.report.error("E030", f"{what}: expected {describe(dim)}, got {describe(typed.dim)}",
+                          node.span, hint=hint)
+        return False
+
+    def _example(self, node, dim: Dim) -> str:
+        """"2 kg": the number the user wrote, if any, with the SI unit."""
+        if isinstance(node, Quantity):
+            node = node.value
+        text = node.text if isinstance(node, NumberLit) else "1"
+        return f"{text} {si_text(dim)}" if dim != NONE else text
+
+    def value(self, expr: Expr, span: Span, what: str) -> float | None:
+        """The value at the default parameters, or None (reported) when there is none."""
+        try:
+            return evaluate(expr, self.vector.defaults())
+        except EvaluationError as error:
+            self.report.error("E027", f"cannot evaluate {what}: {error}", span)
+            return None
+
+    def check_limit(self, expr: Expr, dim: Dim, limit: str, what: str, span: Span) -> None:
+        value = self.value(expr, span, what)
+        if value is None:
+            return
+        if limit == "positive" and value <= 0:
+            self.report.error("E025", f"{what} must be positive, got {value:g} {si_text(dim)}",
+                              span)
+        elif limit == "nonnegative" and value < 0:
+            self.report.error("E025", f"{what} must not be negative, got {value:g} "
+                              f"{si_text(dim)}", span)

@@ -1,0 +1,193 @@
+"""Diagnostics: the error codes, the collector, `ModelError` and the printed format.
+
+A diagnostic is printed as
+
+    model.dep:12:5: error[E012]: unknown member 'panel4'
+        hinge h5 joins panel4.b to panel3.a
+                       ^~~~~~
+    hint: did you mean 'panel3'?
+
+Codes are stable: tests and docs/language.md refer to them. Errors start with E, warnings
+with W. Nothing here raises for user input except `ModelError`, which carries every
+diagnostic found.
+"""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Iterable
+
+from .ir import Diagnostic, Span
+
+# Every code the front end can emit, with a one-line title (docs/language.md lists them all).
+CODES: dict[str, str] = {
+    # files and syntax
+    "E001": "syntax error",
+    "E002": "cannot read the model file",
+    "E003": "the model file is not UTF-8 text",
+    "E004": "missing or misplaced model statement",
+    "E005": "statement given twice",
+    "E006": "nesting too deep",
+    "E007": "number out of range",
+    # names
+    "E010": "unknown name",
+    "E011": "duplicate name",
+    "E012": "unknown member",
+    "E013": "unknown point",
+    "E014": "reserved name",
+    "E015": "parameter used before its declaration",
+    "E016": "unknown function",
+    "E017": "wrong number of arguments",
+    "E018": "name not allowed here",
+    "E019": "unknown property",
+    # attributes and values
+    "E020": "unknown attribute",
+    "E021": "missing required attribute",
+    "E022": "attribute given twice",
+    "E023": "wrong kind of value",
+    "E024": "element count is not a positive whole number",
+    "E025": "value out of range",
+    "E026": "bad simulate setting",
+    "E027": "cannot evaluate",
+    "E028": "inconsistent attributes",
+    # units and dimensions
+    "E030": "wrong dimension",
+    "E031": "missing unit",
+    "E032": "incompatible dimensions",
+    "E033": "bad exponent",
+    "E034": "bad function argument",
+    "E035": "unknown unit",
+    # joints, cables, initial values, outputs
+    "E040": "joint joins a member to itself",
+    "E041": "hinge angle is not of the form ±(B - A) + offset",
+    "E042": "angle of a member the hinge does not join",
+    "E043": "cable angles name something that is not a hinge",
+    "E044": "cable angles are not a linear combination of hinge angles",
+    "E045": "initial value for something that is not a joint",
+    # warnings
+    "W001": "member has no joint path to the ground",
+    "W002": "parameter never used",
+    "W003": "output interval longer than the simulation",
+    "W004": "model has no bodies or beams",
+}
+
+MAX_DIAGNOSTICS = 50  # after this many errors, stop collecting: the rest are usually noise
+
+
+class Reporter:
+    """Collects diagnostics while a stage runs; never raises for user input."""
+
+    def __init__(self) -> None:
+        self.diagnostics: list[Diagnostic] = []
+
+    def error(self, code: str, message: str, span: Span, hint: str = "",
+              notes: Iterable[str] = ()) -> None:
+        assert code.startswith("E") and code in CODES, code
+        self._add(Diagnostic(code, message, span, hint, tuple(notes)))
+
+    def warning(self, code: str, message: str, span: Span, hint: str = "",
+                notes: Iterable[str] = ()) -> None:
+        assert code.startswith("W") and code in CODES, code
+        self._add(Diagnostic(code, message, span, hint, tuple(notes)))
+
+    def _add(self, diagnostic: Diagnostic) -> None:
+        if len(self.diagnostics) < MAX_DIAGNOSTICS and diagnostic not in self.diagnostics:
+            self.diagnostics.append(diagnostic)
+
+    @property
+    def has_errors(self) -> bool:
+        return any(is_error(d) for d in self.diagnostics)
+
+    def errors(self) -> list[Diagnostic]:
+        return [d for d in self.diagnostics if is_error(d)]
+
+    def warnings(self) -> list[Diagnostic]:
+        return [d for d in self.diagnostics if not is_error(d)]
+
+
+def is_error(diagnostic: Diagnostic) -> bool:
+    return diagnostic.code.startswith("E")
+
+
+def sort_key(diagnostic: Diagnostic) -> tuple[int, int]:
+    return diagnostic.span.line, diagnostic.span.col
+
+
+class ModelError(Exception):
+    """The model has errors. `diagnostics` holds all of them, with any warnings, in source
+    order; `source` is the model text when it could be read (for `format_diagnostics`)."""
+
+    def __init__(self, diagnostics: Iterable[Diagnostic], source: str | None = None) -> None:
+        self.diagnostics: list[Diagnostic] = sorted(diagnostics, key=sort_key)
+        self.source = source
+        assert any(is_error(d) for d in self.diagnostics), "ModelError without an error"
+        super().__init__("\n".join(header(d) for d in self.diagnostics))
+
+    @property
+    def errors(self) -> list[Diagnostic]:
+        return [d for d in self.diagnostics if is_error(d)]
+
+    def format(self) -> str:
+        """All diagnostics with source lines and carets (see `format_diagnostics`)."""
+        return format_diagnostics(self.diagnostics, self.source)
+
+
+def header(diagnostic: Diagnostic) -> str:
+    """The first line: `FILE:LINE:COL: error[E012]: message`."""
+    span = diagnostic.span
+    severity = "error" if is_error(diagnostic) else "warning"
+    return f"{span.file}:{span.line}:{span.col}: {severity}[{diagnostic.code}]: " \
+           f"{diagnostic.message}"
+
+
+def format_diagnostics(diagnostics: Iterable[Diagnostic], source_text: str | None) -> str:
+    """Format diagnostics in source order: header line, the source line, a caret line
+    (^~~~ under the span on that line), then `hint:` and `note:` lines. Every line ends with
+    a newline; "" when there is nothing to report. `source_text` may be None (a file that
+    could not be read): then only the header, hint and note lines are printed."""
+    lines = (source_text or "").split("\n")
+    return "".join(_format_one(d, lines) + "\n" for d in sorted(diagnostics, key=sort_key))
+
+
+def _format_one(diagnostic: Diagnostic, lines: list[str]) -> str:
+    out = [header(diagnostic)]
+    span = diagnostic.span
+    if 1 <= span.line <= len(lines) and lines[span.line - 1].strip():
+        text = lines[span.line - 1].rstrip("\r\n")
+        out.append(text)
+        out.append(_caret(text, span))
+    if diagnostic.hint:
+        out.append(f"hint: {diagnostic.hint}")
+    out.extend(f"note: {note}" for note in diagnostic.notes)
+    return "\n".join(out)
+
+
+def _caret(text: str, span: Span) -> str:
+    """^~~~ under columns [col, end_col) of the span's first line; tabs kept so it aligns."""
+    start = min(max(span.col, 1), len(text) + 1)
+    end = span.end_col if span.end_line == span.line else len(text) + 1
+    width = max(1, min(end, len(text) + 1) - start)
+    prefix = "".join("\t" if ch == "\t" else " " for ch in text[:start - 1])
+    return prefix + "^" + "~" * (width - 1)
+
+
+def did_you_mean(name: str, candidates: Iterable[str]) -> str:
+    """A hint naming the closest candidate, or "" when none is close."""
+    close = difflib.get_close_matches(name, sorted(set(candidates)), n=1, cutoff=0.6)
+    return f"did you mean '{close[0]}'?" if close else ""
+
+
+def join_names(names: Iterable[str]) -> str:
+    """'a, b, c' (or 'none')."""
+    listed = list(names)
+    return ", ".join(listed) if listed else "none"
+
+
+def file_span(filename: str) -> Span:
+    """The span used for problems with a whole file: line 1, column 1."""
+    return Span(filename, 1, 1, 1, 2)
+
+
+def at(span: Span) -> str:
+    """`LINE:COL` for notes such as 'first defined at 12:5'."""
+    return f"{span.line}:{span.col}"

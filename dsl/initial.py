@@ -1,0 +1,72 @@
+"""`initial { h1 = 30 deg; h1.rate = 0 rad/s; s1 = 0.2 m }`: joint values at t = 0.
+
+Each value becomes a parameter entry (`h1.initial_angle`, `h1.initial_rate`,
+`s1.initial_position`, `s1.initial_rate`); values not given are 0.
+"""
+
+from __future__ import annotations
+
+from .attributes import AttrSpec, AttributeReader
+from .errors import at, did_you_mean, join_names
+from .ir import Dim, Expr, Span
+from .names import SymbolTable
+from .syntax import AttributeItem, InitialStmt, PointItem
+from .units import ANGLE, LENGTH
+
+# (joint kind, property) -> (entry suffix, dimension)
+_VALUES: dict[tuple[str, str], tuple[str, Dim]] = {
+    ("hinge", ""): ("initial_angle", ANGLE),
+    ("hinge", "rate"): ("initial_rate", Dim(angle=1, time=-1)),
+    ("slider", ""): ("initial_position", LENGTH),
+    ("slider", "rate"): ("initial_rate", Dim(length=1, time=-1)),
+}
+
+
+class InitialValues:
+    """Initial values read so far, keyed by (joint name, entry suffix)."""
+
+    def __init__(self) -> None:
+        self.values: dict[tuple[str, str], Expr | None] = {}
+        self.spans: dict[tuple[str, str], Span] = {}
+
+    def get(self, joint: str, suffix: str) -> Expr | None:
+        return self.values.get((joint, suffix))
+
+    def read(self, statement: InitialStmt, symbols: SymbolTable,
+             reader: AttributeReader) -> None:
+        for item in statement.block.items:
+            if isinstance(item, PointItem):
+                reader.report.error("E020", "initial takes joint values, not points",
+                                    item.span, hint="e.g. h1 = 30 deg")
+                continue
+            self._read_item(item, symbols, reader)
+
+    def _read_item(self, item: AttributeItem, symbols: SymbolTable,
+                   reader: AttributeReader) -> None:
+        report = reader.report
+        name = item.name.text
+        symbol = symbols.get(name)
+        joints = symbols.names_of_kind("hinge", "slider")
+        if symbol is None:
+            report.error("E010", f"unknown name '{name}'", item.name.span,
+                         hint=did_you_mean(name, joints) or f"joints: {join_names(joints)}")
+            return
+        if symbol.kind not in ("hinge", "slider"):
+            report.error("E045", f"{symbol.describe()} is not a joint; initial values are "
+                         "given for hinges and sliders", item.name.span)
+            return
+        prop = item.sub.text if item.sub else ""
+        if (symbol.kind, prop) not in _VALUES:
+            report.error("E019", f"{symbol.describe()} has no initial value '{prop}'",
+                         item.sub.span, hint=f"write {name} = ... or {name}.rate = ...")
+            return
+        suffix, dim = _VALUES[(symbol.kind, prop)]
+        key = (name, suffix)
+        if key in self.spans:
+            report.error("E022", f"initial value '{name}{'.' + prop if prop else ''}' is "
+                         "given twice", item.name.span,
+                         notes=[f"first given at {at(self.spans[key])}"])
+            return
+        self.spans[key] = item.span
+        spec = AttrSpec(f"initial value of {name}{'.' + prop if prop else ''}", dim)
+        self.values[key] = reader.scalar(item, spec, f"{name}.{suffix}")

@@ -1,0 +1,152 @@
+"""The symbol table: every declared name, its kind and index, and each member's points.
+
+One namespace holds parameters, members (bars, bodies, beams), joints, cables and outputs.
+Keywords, functions, `pi`, `t` and `ground` are reserved. A parameter may reuse a unit's
+name (the pendulum's `m`): a bare name is looked up as a declared name first, and a unit
+written after a value (`2 m`) is always the unit.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from .errors import Reporter, at
+from .ir import FUNCTIONS, Member, MemberKind, Span
+from .syntax import (KEYWORDS, CableStmt, GroundStmt, JointStmt, MemberStmt, OutputStmt,
+                     ParamStmt, PointItem, SourceFile)
+from .units import UNITS
+
+CONSTANTS = frozenset({"pi", "t"})
+
+# What each kind is called in messages.
+KIND_WORDS = {
+    "param": "parameter", "bar": "bar", "body": "body", "beam": "beam", "hinge": "hinge",
+    "slider": "slider", "cable": "cable", "output": "output", "ground": "the ground",
+}
+MEMBER_KINDS = ("bar", "body", "beam", "ground")
+
+
+@dataclass(frozen=True, slots=True)
+class Symbol:
+    """A declared name: its kind, its index among elements of that kind (bars and bodies
+    share Model.bodies), and where it is declared."""
+
+    name: str
+    kind: str
+    index: int
+    span: Span
+
+    @property
+    def member(self) -> Member:
+        assert self.kind in MEMBER_KINDS, self.kind
+        kind = {"bar": MemberKind.BODY, "body": MemberKind.BODY, "beam": MemberKind.BEAM,
+                "ground": MemberKind.GROUND}[self.kind]
+        return Member(kind, self.index)
+
+    def describe(self) -> str:
+        """"bar 'yoke'", "the ground"."""
+        return "the ground" if self.kind == "ground" else f"{KIND_WORDS[self.kind]} '{self.name}'"
+
+
+@dataclass
+class SymbolTable:
+    symbols: dict[str, Symbol] = field(default_factory=dict)
+    points: dict[str, dict[str, Span | None]] = field(default_factory=dict)  # member -> points
+    counts: dict[str, int] = field(default_factory=dict)
+
+    def get(self, name: str) -> Symbol | None:
+        return self.symbols.get(name)
+
+    def of_kind(self, *kinds: str) -> list[Symbol]:
+        return [s for s in self.symbols.values() if s.kind in kinds]
+
+    def names_of_kind(self, *kinds: str) -> list[str]:
+        return [s.name for s in self.of_kind(*kinds)]
+
+
+_INDEX_GROUP = {"bar": "body", "body": "body"}  # bars and bodies are both Model.bodies
+
+
+def collect_symbols(source: SourceFile, report: Reporter) -> SymbolTable:
+    """Declare every name in file order; report duplicates and reserved names."""
+    table = SymbolTable()
+    ground_span = Span(source.filename, 1, 1, 1, 1)
+    table.symbols["ground"] = Symbol("ground", "ground", 0, ground_span)
+    table.points["ground"] = {"origin": None}
+    for statement in source.statements:
+        _declare_statement(table, statement, report)
+    return table
+
+
+def _declare_statement(table: SymbolTable, statement, report: Reporter) -> None:
+    if isinstance(statement, ParamStmt):
+        _declare(table, statement.name, "param", report)
+    elif isinstance(statement, MemberStmt):
+        if _declare(table, statement.name, statement.kind, report):
+            _declare_points(table, statement, report)
+    elif isinstance(statement, JointStmt):
+        _declare(table, statement.name, statement.kind, report)
+    elif isinstance(statement, CableStmt):
+        _declare(table, statement.name, "cable", report)
+    elif isinstance(statement, OutputStmt):
+        _declare(table, statement.name, "output", report)
+    elif isinstance(statement, GroundStmt):
+        _declare_points_of(table, "ground", "the ground", statement.block.items, report)
+
+
+def _declare(table: SymbolTable, ident, kind: str, report: Reporter) -> bool:
+    name = ident.text
+    if name in KEYWORDS or name in FUNCTIONS or name in CONSTANTS or name == "ground":
+        what = "a keyword" if name in KEYWORDS else "a function" if name in FUNCTIONS \
+            else "the ground" if name == "ground" else "a built-in constant"
+        report.error("E014", f"'{name}' is {what} and cannot name a {KIND_WORDS[kind]}",
+                     ident.span, hint="choose another name")
+        return False
+    if name in table.symbols:
+        first = table.symbols[name]
+        report.error("E011", f"duplicate name '{name}': already used by {first.describe()}",
+                     ident.span, notes=[f"first defined at {at(first.span)}"])
+        return False
+    group = _INDEX_GROUP.get(kind, kind)
+    index = table.counts.get(group, 0)
+    table.counts[group] = index + 1
+    table.symbols[name] = Symbol(name, kind, index, ident.span)
+    return True
+
+
+def _declare_points(table: SymbolTable, statement: MemberStmt, report: Reporter) -> None:
+    name = statement.name.text
+    table.points[name] = {"a": None, "b": None} if statement.kind in ("bar", "beam") else {}
+    if statement.kind == "beam":
+        return  # a beam's points are its ends; declared points are reported by resolve
+    owner = f"{statement.kind} '{name}'"
+    _declare_points_of(table, name, owner, statement.block.items, report)
+
+
+def _declare_points_of(table: SymbolTable, member: str, owner: str, items,
+                       report: Reporter) -> None:
+    points = table.points[member]
+    for item in items:
+        if not isinstance(item, PointItem):
+            continue
+        name = item.name.text
+        if name in points:
+            first = points[name]
+            notes = [f"first defined at {at(first)}"] if first else \
+                [f"'{name}' is a built-in point of {owner}"]
+            report.error("E011", f"duplicate point '{name}' on {owner}", item.name.span,
+                         notes=notes)
+            continue
+        points[name] = item.name.span
+
+
+def element_name(symbols: SymbolTable):
+    """A predicate for the names a linear form is taken in (hinge and cable angles): any
+    element, and unknown names (reported by the caller), but not parameters, units, `pi`
+    or `t`."""
+    def is_element(name: str) -> bool:
+        symbol = symbols.get(name)
+        if symbol is not None:
+            return symbol.kind != "param"
+        return name not in UNITS and name not in CONSTANTS
+    return is_element

@@ -1,0 +1,241 @@
+"""Syntax tree -> checked IR (`ir.Model`): names to indices, units to SI, defaults filled,
+every semantic check. All errors are collected in the Reporter; no Model is built when
+there is any.
+
+Statements are read in file order (one `_read_<Statement>` method each), so parameter
+entries come out in file order: declared params first, then attributes.
+"""
+
+from __future__ import annotations
+
+import hashlib
+
+from .assembly import assemble
+from .attributes import SPECS, AttributeReader, ParamVector, read_block
+from .errors import Reporter, at, file_span, sort_key
+from .evaluate import EvaluationError, Typed, evaluate, param_indices
+from .expressions import Context, ExprResolver, ParamInfo
+from .initial import InitialValues
+from .ir import (Beam, Body, Cable, Expr, Ground, Hinge, Model, Num, Output, Param, ParamKind,
+                 Simulation, Slider)
+from .joints import resolve_cable, resolve_hinge, resolve_slider
+from .members import resolve_gravity, resolve_ground, resolve_member
+from .names import collect_symbols
+from .syntax import (CableStmt, GravityStmt, GroundStmt, InitialStmt, JointStmt, MemberStmt,
+                     ModelStmt, OutputStmt, ParamStmt, SimulateStmt, SourceFile)
+from .units import si_text
+
+DEFAULT_SIMULATION = Simulation(t_end=10.0, tol=1e-8, dt_out=0.01)
+_SINGLE = (ModelStmt, GravityStmt, GroundStmt, SimulateStmt)  # at most one of each
+
+
+def resolve(source: SourceFile, text: str, report: Reporter) -> Model | None:
+    """The checked model, or None when `report` holds errors."""
+    return _ModelBuilder(source, text, report).build()
+
+
+class _ModelBuilder:
+    def __init__(self, source: SourceFile, text: str, report: Reporter) -> None:
+        self.source = source
+        self.text = text
+        self.report = report
+        self.symbols = collect_symbols(source, report)
+        self.resolver = ExprResolver(self.symbols, report)
+        self.vector = ParamVector()
+        self.reader = AttributeReader(self.resolver, self.vector)
+        self.gravity: tuple[Expr, Expr] | None = (Num(0.0), Num(0.0))
+        self.ground: Ground | None = None
+        self.members: list[Body | Beam | None] = []
+        self.hinges: list[dict | None] = []
+        self.sliders: list[dict | None] = []
+        self.cables: list[Cable | None] = []
+        self.outputs: list[Output | None] = []
+        self.initial = InitialValues()
+        self.simulation = DEFAULT_SIMULATION
+        self.seen: dict[type, object] = {}
+
+    def build(self) -> Model | None:
+        self._check_model_statement()
+        for statement in self.source.statements:
+            if isinstance(statement, ParamStmt):
+                self._read_param(statement)
+        for statement in self.source.statements:
+            if self._first_of_its_kind(statement):
+                getattr(self, "_read_" + type(statement).__name__)(statement)
+        if self.ground is None:
+            self.ground = resolve_ground(None, self.reader, self.source.filename)
+        if self.report.has_errors:
+            return None
+        self._warn_unused_params()
+        return self._model()
+
+    # --- statements ----------------------------------------------------------------------
+
+    def _check_model_statement(self) -> None:
+        statements = self.source.statements
+        models = [s for s in statements if isinstance(s, ModelStmt)]
+        span = statements[0].span if statements else file_span(self.source.filename)
+        if not models:
+            self.report.error("E004", "missing model statement", span,
+                              hint='start the file with: model NAME "description"')
+        elif statements[0] is not models[0]:
+            self.report.error("E004", "the model statement must come first", models[0].span,
+                              notes=[f"the first statement is at {at(statements[0].span)}"])
+
+    def _first_of_its_kind(self, statement) -> bool:
+        if not isinstance(statement, _SINGLE):
+            return True
+        first = self.seen.setdefault(type(statement), statement)
+        if first is statement:
+            return True
+        self.report.error("E005", f"a model has only one '{_keyword(statement)}' statement",
+                          statement.span, notes=[f"first given at {at(first.span)}"])
+        return False
+
+    def _declares(self, statement) -> bool:
+        """False for a statement whose name was refused (duplicate or reserved)."""
+        symbol = self.symbols.get(statement.name.text)
+        return symbol is not None and symbol.span == statement.name.span
+
+    def _read_ModelStmt(self, statement: ModelStmt) -> None:
+        pass  # read in _model
+
+    def _read_param(self, statement: ParamStmt) -> None:
+        if not self._declares(statement):
+            return
+        name = statement.name.text
+        end = (statement.span.end_line, statement.span.end_col)
+        typed = self.resolver.resolve(statement.value, Context.CONSTANT)
+        if typed is not None and param_indices(typed.expr):
+            self.vector.add_derived(name, typed.expr, statement.name.span)
+        elif typed is not None:
+            typed = self._free_param(name, typed, statement)
+        self.resolver.params[name] = ParamInfo(typed, statement.name.span, end)
+
+    def _free_param(self, name: str, typed: Typed, statement: ParamStmt) -> Typed | None:
+        try:
+            value = evaluate(typed.expr, ())
+        except EvaluationError as error:
+            self.report.error("E027", f"cannot evaluate parameter '{name}': {error}",
+                              statement.value.span)
+            return None
+        ref = self.vector.add(Param(name, value, typed.dim, si_text(typed.dim),
+                                    ParamKind.DECLARED, statement.name.span))
+        return Typed(ref, typed.dim)
+
+    def _read_ParamStmt(self, statement: ParamStmt) -> None:
+        pass  # read first, in _read_param
+
+    def _read_GravityStmt(self, statement: GravityStmt) -> None:
+        self.gravity = resolve_gravity(statement, self.reader)
+
+    def _read_GroundStmt(self, statement: GroundStmt) -> None:
+        self.ground = resolve_ground(statement, self.reader, self.source.filename)
+
+    def _read_MemberStmt(self, statement: MemberStmt) -> None:
+        if self._declares(statement):
+            self.members.append(resolve_member(statement, self.reader))
+
+    def _read_JointStmt(self, statement: JointStmt) -> None:
+        if not self._declares(statement):
+            return
+        if statement.kind == "hinge":
+            self.hinges.append(resolve_hinge(statement, self.symbols, self.reader))
+        else:
+            self.sliders.append(resolve_slider(statement, self.symbols, self.reader))
+
+    def _read_CableStmt(self, statement: CableStmt) -> None:
+        if self._declares(statement):
+            hinge_index = {s.name: s.index for s in self.symbols.of_kind("hinge")}
+            self.cables.append(resolve_cable(statement, self.symbols, self.reader, hinge_index))
+
+    def _read_InitialStmt(self, statement: InitialStmt) -> None:
+        self.initial.read(statement, self.symbols, self.reader)
+
+    def _read_SimulateStmt(self, statement: SimulateStmt) -> None:
+        found = read_block(statement.block, "simulate", "simulate", statement.span,
+                           self.report)
+        values = {}
+        for spec in SPECS["simulate"]:
+            if spec.name in found:
+                values[spec.name] = self._setting(found[spec.name], spec)
+        settings = {k: v for k, v in values.items() if v is not None}
+        self.simulation = Simulation(**{**_as_dict(DEFAULT_SIMULATION), **settings})
+        if self.simulation.dt_out > self.simulation.t_end and "dt_out" in found:
+            self.report.warning("W003", f"dt_out ({self.simulation.dt_out:g} s) is longer "
+                                f"than t_end ({self.simulation.t_end:g} s)",
+                                found["dt_out"].span, hint="only the final state is output")
+
+    def _setting(self, item, spec) -> float | None:
+        typed = self.reader.quantity(item.value, spec.dim, spec.name)
+        if typed is None:
+            return None
+        if param_indices(typed.expr):
+            self.report.error("E026", f"simulate settings are fixed numbers; {spec.name} "
+                              "cannot use parameters", item.value.span)
+            return None
+        value = self.reader.value(typed.expr, item.value.span, spec.name)
+        if value is not None and value <= 0:
+            self.report.error("E026", f"{spec.name} must be positive, got {value:g} "
+                              f"{si_text(spec.dim) if spec.name != 'tol' else ''}".rstrip(),
+                              item.value.span)
+            return None
+        return value
+
+    def _read_OutputStmt(self, statement: OutputStmt) -> None:
+        if not self._declares(statement):
+            return
+        typed = self.resolver.resolve(statement.value, Context.OUTPUT)
+        self.outputs.append(None if typed is None else Output(
+            statement.name.text, typed.expr, typed.dim, si_text(typed.dim), statement.span))
+
+    # --- checks and the model ------------------------------------------------------------
+
+    def _warn_unused_params(self) -> None:
+        for statement in self.source.statements:
+            if isinstance(statement, ParamStmt) and self._declares(statement) \
+                    and statement.name.text not in self.resolver.used_params:
+                self.report.warning("W002", f"parameter '{statement.name.text}' is never used",
+                                    statement.name.span)
+
+    def _model(self) -> Model:
+        parts = (self.members, self.hinges, self.sliders, self.cables, self.outputs)
+        assert self.gravity is not None and all(None not in p for p in parts), \
+            "an element failed without an error"
+        hinges = tuple(Hinge(**h, initial_angle=self._initial(h["name"], "initial_angle"),
+                             initial_rate=self._initial(h["name"], "initial_rate"))
+                       for h in self.hinges)
+        sliders = tuple(Slider(**s, initial_position=self._initial(s["name"], "initial_position"),
+                               initial_rate=self._initial(s["name"], "initial_rate"))
+                        for s in self.sliders)
+        bodies = tuple(m for m in self.members if isinstance(m, Body))
+        beams = tuple(m for m in self.members if isinstance(m, Beam))
+        members = [(s.member, s.describe(), s.span)
+                   for s in self.symbols.of_kind("bar", "body", "beam")]
+        placements, loops = assemble(hinges, sliders, members, self.report)
+        if not members:
+            self.report.warning("W004", "the model has no bodies or beams",
+                                self.source.statements[0].span)
+        model_statement = self.seen[ModelStmt]
+        return Model(
+            name=model_statement.name.text, description=model_statement.description,
+            source_file=self.source.filename,
+            source_sha256=hashlib.sha256(self.text.encode("utf-8")).hexdigest(),
+            params=tuple(self.vector.entries()), derived=tuple(self.vector.derived),
+            gravity=self.gravity, ground=self.ground, bodies=bodies, beams=beams,
+            hinges=hinges, sliders=sliders, cables=tuple(self.cables),
+            outputs=tuple(self.outputs), simulation=self.simulation, placements=placements,
+            loop_joints=loops, warnings=tuple(sorted(self.report.warnings(), key=sort_key)))
+
+    def _initial(self, joint: str, suffix: str) -> Expr:
+        value = self.initial.get(joint, suffix)
+        return Num(0.0) if value is None else value
+
+
+def _keyword(statement) -> str:
+    return {ModelStmt: "model", GravityStmt: "gravity", GroundStmt: "ground",
+            SimulateStmt: "simulate"}[type(statement)]
+
+
+def _as_dict(simulation: Simulation) -> dict[str, float]:
+    return {"t_end": simulation.t_end, "tol": simulation.tol, "dt_out": simulation.dt_out}

@@ -1,0 +1,199 @@
+"""One screen describing a checked model: elements, sizes, parameters, outputs, warnings.
+
+Values are shown at the parameters' defaults, in SI units (angles also in degrees).
+"""
+
+from __future__ import annotations
+
+import math
+import textwrap
+
+from .errors import header
+from .evaluate import EvaluationError, evaluate
+from .ir import Dim, Expr, Member, MemberKind, Model, Num
+from .units import ANGLE, si_text
+
+_WIDTH = 100
+_HINGE_ATTRIBUTES = ("stiffness", "preload", "friction", "static_friction", "slip_rate",
+                     "damping", "latch", "latch_stiffness", "latch_damping", "stop_min",
+                     "stop_max", "initial_angle", "initial_rate")
+_HINGE_DIMS = {"stiffness": Dim(1, 2, -2, -1), "latch_stiffness": Dim(1, 2, -2, -1),
+               "preload": Dim(1, 2, -2), "friction": Dim(1, 2, -2),
+               "static_friction": Dim(1, 2, -2), "slip_rate": Dim(time=-1, angle=1),
+               "damping": Dim(1, 2, -1, -1), "latch_damping": Dim(1, 2, -1, -1),
+               "initial_rate": Dim(time=-1, angle=1)}
+
+
+def summary(model: Model) -> str:
+    """A one-screen description of `model` (plain text, lines under 100 characters)."""
+    values = [p.default for p in model.params]
+    lines = [f"model {model.name}" + (f": {model.description}" if model.description else ""),
+             f"source {model.source_file} (sha256 {model.source_sha256[:12]})", ""]
+    for section in (_bodies, _beams, _hinges, _sliders, _cables, _sizes, _settings, _params,
+                    _outputs, _warnings):
+        lines += section(model, values)
+    return "\n".join(lines).rstrip() + "\n"
+
+
+def quantity(expr: Expr, dim: Dim, values: list[float]) -> str:
+    """`expr` at the defaults with its SI unit: "0.1273 N*m/rad", "1.571 rad (90 deg)"."""
+    try:
+        value = evaluate(expr, values)
+    except EvaluationError:
+        return "?"
+    if dim == ANGLE:
+        return f"{math.degrees(value):.4g} deg"
+    unit = si_text(dim)
+    return f"{value:.4g}" + ("" if unit == "1" else f" {unit}")
+
+
+def _member_name(model: Model, member: Member) -> str:
+    if member.kind is MemberKind.GROUND:
+        return "ground"
+    elements = model.bodies if member.kind is MemberKind.BODY else model.beams
+    return elements[member.index].name
+
+
+def _bodies(model: Model, values: list[float]) -> list[str]:
+    lines = [f"bodies ({len(model.bodies)})"]
+    for body in model.bodies:
+        parts = [f"  {body.name:<12} {body.kind:<5}"]
+        if body.length is not None:
+            parts.append(f"length {quantity(body.length, Dim(length=1), values)},")
+        parts.append(f"mass {quantity(body.mass, Dim(mass=1), values)},")
+        parts.append(f"inertia {quantity(body.inertia, Dim(1, 2), values)};")
+        parts.append("points " + ", ".join(p.name for p in body.points))
+        lines += _wrap(" ".join(parts))
+    return lines
+
+
+def _beams(model: Model, values: list[float]) -> list[str]:
+    lines = [f"beams ({len(model.beams)})"]
+    for beam in model.beams:
+        text = (f"  {beam.name:<12} length {quantity(beam.length, Dim(length=1), values)}, "
+                f"EI {quantity(beam.EI, Dim(1, 3, -2), values)}, "
+                f"EA {quantity(beam.EA, Dim(1, 1, -2), values)}, "
+                f"mass_per_length {quantity(beam.mass_per_length, Dim(1, -1), values)}, "
+                f"{beam.elements} elements")
+        if beam.damping is not None:
+            text += f", damping {quantity(beam.damping, Dim(time=1), values)}"
+        lines += _wrap(text)
+    return lines
+
+
+def _hinges(model: Model, values: list[float]) -> list[str]:
+    lines = [f"hinges ({len(model.hinges)})"]
+    for hinge in model.hinges:
+        a, b = _member_name(model, hinge.a.member), _member_name(model, hinge.b.member)
+        sign = "" if hinge.sign > 0 else "-"
+        offset = "" if hinge.offset == Num(0.0) else \
+            f" + {quantity(hinge.offset, ANGLE, values)}"
+        text = (f"  {hinge.name:<12} {a}.{hinge.a.point} -> {b}.{hinge.b.point}: "
+                f"theta = {sign}({b} - {a}){offset}")
+        attributes = [f"{name} {quantity(value, _HINGE_DIMS.get(name, ANGLE), values)}"
+                      for name in _HINGE_ATTRIBUTES
+                      if (value := getattr(hinge, name)) is not None and value != Num(0.0)]
+        lines += _wrap_items(text + ";", attributes)
+    return lines
+
+
+def _sliders(model: Model, values: list[float]) -> list[str]:
+    lines = [f"sliders ({len(model.sliders)})"]
+    for slider in model.sliders:
+        a, b = _member_name(model, slider.a.member), _member_name(model, slider.b.member)
+        axis = ", ".join(quantity(c, Dim(), values) for c in slider.axis)
+        lines += _wrap_items(
+            f"  {slider.name:<12} {a}.{slider.a.point} -> {b}.{slider.b.point}:",
+            [f"axis ({axis})",
+             f"initial_position {quantity(slider.initial_position, Dim(length=1), values)}",
+             f"initial_rate {quantity(slider.initial_rate, Dim(length=1, time=-1), values)}"])
+    return lines
+
+
+def _cables(model: Model, values: list[float]) -> list[str]:
+    lines = [f"cables ({len(model.cables)})"]
+    for cable in model.cables:
+        terms = []
+        for term in cable.terms:
+            coefficient = quantity(term.coefficient, Dim(), values)
+            name = model.hinges[term.hinge].name
+            terms.append(name if coefficient == "1" else f"-{name}" if coefficient == "-1"
+                         else f"{coefficient}*{name}")
+        combination = " + ".join(terms).replace("+ -", "- ")
+        lines.append(f"  {cable.name:<12} stiffness "
+                     f"{quantity(cable.stiffness, Dim(1, 2, -2, -1), values)}, "
+                     f"angles {combination}")
+    return lines
+
+
+def _sizes(model: Model, values: list[float]) -> list[str]:
+    joints = len(model.hinges) + len(model.sliders)
+    coordinates = 3 * len(model.bodies)
+    text = f"coordinates {coordinates} (3 per rigid body)"
+    if model.beams:
+        text += ", plus beam coordinates (set by the beam element)"
+    text += f"; constraints {2 * joints} (2 per hinge or slider)"
+    if not model.beams:
+        text += f"; degrees of freedom {coordinates - 2 * joints}"
+    steps = [f"{_joint_name(model, p.kind.value, p.joint)} places "
+             f"{_member_name(model, p.child)}" for p in model.placements]
+    loops = [_joint_name(model, kind.value, index) for kind, index in model.loop_joints]
+    lines = ["", *_wrap(text), *_wrap("assembly: " + (", ".join(steps) or "nothing to place"))]
+    if loops:
+        lines += _wrap("loops closed by: " + ", ".join(loops))
+    return lines
+
+
+def _joint_name(model: Model, kind: str, index: int) -> str:
+    return (model.hinges if kind == "hinge" else model.sliders)[index].name
+
+
+def _settings(model: Model, values: list[float]) -> list[str]:
+    gravity = ", ".join(quantity(g, Dim(), values) for g in model.gravity)
+    s = model.simulation
+    return [f"gravity ({gravity}) m/s^2",
+            f"simulate t_end {s.t_end:g} s, tol {s.tol:g}, dt_out {s.dt_out:g} s"]
+
+
+def _params(model: Model, values: list[float]) -> list[str]:
+    declared = [p for p in model.params if p.kind.value == "param"]
+    attributes = [p for p in model.params if p.kind.value != "param"]
+    lines = ["", f"parameters ({len(model.params)}: {len(declared)} declared, "
+             f"{len(attributes)} from attributes)"]
+    lines += [f"  {p.name} = {p.default:.6g} {p.unit}" for p in declared]
+    if attributes:
+        lines += _wrap_items("  attributes:", [
+            f"{p.name}={p.default:.4g}" + ("" if p.unit == "1" else f" {p.unit}")
+            for p in attributes])
+    if model.derived:
+        lines += _wrap_items("  derived:", [f"{d.name} (from {', '.join(d.depends_on)})"
+                                            for d in model.derived])
+    return lines
+
+
+def _outputs(model: Model, values: list[float]) -> list[str]:
+    listed = ", ".join(f"{o.name} [{o.unit}]" for o in model.outputs) or "none"
+    return _wrap(f"outputs ({len(model.outputs)}): {listed}")
+
+
+def _warnings(model: Model, values: list[float]) -> list[str]:
+    if not model.warnings:
+        return ["warnings: none"]
+    return [f"warnings ({len(model.warnings)}):"] + [f"  {header(w)}" for w in model.warnings]
+
+
+def _wrap_items(prefix: str, items: list[str], indent: str = "      ") -> list[str]:
+    """`prefix item, item, ...` filled to the width, never breaking inside an item."""
+    lines, line = [], prefix
+    for i, item in enumerate(items):
+        piece = item + ("," if i < len(items) - 1 else "")
+        if len(line) + 1 + len(piece) > _WIDTH and line.strip():
+            lines.append(line)
+            line = indent + piece
+        else:
+            line = f"{line} {piece}"
+    return lines + [line]
+
+
+def _wrap(text: str, indent: str = "      ") -> list[str]:
+    return textwrap.wrap(text, _WIDTH, subsequent_indent=indent, break_on_hyphens=False) or [""]

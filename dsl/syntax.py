@@ -1,0 +1,321 @@
+"""The syntax tree of a .dep file: frozen dataclasses with spans, built from lark's parse tree.
+
+This is what the text says, nothing more: names are strings, numbers are as written, units
+are their text. `resolve` turns it into the checked IR. The Transformer only builds nodes;
+every check happens later (lark would wrap exceptions raised here in VisitError).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from lark import Token, Transformer, v_args
+
+from .ir import Span
+
+
+# The words that start statements, and all keywords of the grammar.
+STATEMENT_WORDS = ("model", "param", "gravity", "ground", "bar", "body", "beam", "hinge",
+                   "slider", "cable", "initial", "simulate", "output")
+KEYWORDS = frozenset(STATEMENT_WORDS + ("joins", "to", "point"))
+
+
+@dataclass(frozen=True, slots=True)
+class Ident:
+    text: str
+    span: Span
+
+
+# --- expressions ------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class NumberLit:
+    value: float
+    text: str
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class NameRef:
+    """`x`, `h1.rate`, `rod.b.x`: a name with optional dotted parts."""
+
+    parts: tuple[Ident, ...]
+    span: Span
+
+    @property
+    def dotted(self) -> str:
+        return ".".join(p.text for p in self.parts)
+
+
+@dataclass(frozen=True, slots=True)
+class UnaryOp:
+    op: str  # "-" or "+"
+    arg: AstExpr
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class BinaryOp:
+    op: str  # "+", "-", "*", "/", "^"
+    left: AstExpr
+    right: AstExpr
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class CallExpr:
+    func: Ident
+    args: tuple[AstExpr, ...]
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class Quantity:
+    """A value followed by a unit: `1.09 m`, `(L/2) m`, `0.01835^2 N*m/rad`."""
+
+    value: AstExpr
+    unit: str
+    unit_span: Span
+    span: Span
+
+
+AstExpr = NumberLit | NameRef | UnaryOp | BinaryOp | CallExpr | Quantity
+
+
+@dataclass(frozen=True, slots=True)
+class VectorLit:
+    """`(x, y)` with an optional unit applying to both components."""
+
+    x: AstExpr
+    y: AstExpr
+    unit: str | None
+    unit_span: Span | None
+    span: Span
+
+
+# --- block items and statements ---------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class AttributeItem:
+    """`name = value` or `name.sub = value` (e.g. `h1.rate = 0 rad/s` in `initial`)."""
+
+    name: Ident
+    sub: Ident | None
+    value: AstExpr | VectorLit
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class PointItem:
+    name: Ident
+    value: VectorLit
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class Block:
+    items: tuple[AttributeItem | PointItem, ...]
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class ModelStmt:
+    name: Ident
+    description: str
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class ParamStmt:
+    name: Ident
+    value: AstExpr
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class GravityStmt:
+    value: VectorLit
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class GroundStmt:
+    block: Block
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class MemberStmt:
+    kind: str  # "bar", "body" or "beam"
+    name: Ident
+    block: Block
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class AttachmentRef:
+    member: Ident
+    point: Ident
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class JointStmt:
+    kind: str  # "hinge" or "slider"
+    name: Ident
+    a: AttachmentRef
+    b: AttachmentRef
+    block: Block | None
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class CableStmt:
+    name: Ident
+    block: Block
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class InitialStmt:
+    block: Block
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class SimulateStmt:
+    block: Block
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class OutputStmt:
+    name: Ident
+    value: AstExpr
+    span: Span
+
+
+Statement = ModelStmt | ParamStmt | GravityStmt | GroundStmt | MemberStmt | JointStmt \
+    | CableStmt | InitialStmt | SimulateStmt | OutputStmt
+
+
+@dataclass(frozen=True, slots=True)
+class SourceFile:
+    filename: str
+    statements: tuple[Statement, ...]
+
+
+# --- lark tree -> syntax tree -----------------------------------------------------------------
+
+
+@v_args(meta=True)
+class ToSyntax(Transformer):
+    """Builds the syntax tree; one method per grammar rule, no checks."""
+
+    def __init__(self, filename: str) -> None:
+        super().__init__()
+        self.filename = filename
+
+    def _span(self, meta) -> Span:
+        return Span(self.filename, meta.line, meta.column, meta.end_line, meta.end_column)
+
+    def _ident(self, token: Token) -> Ident:
+        return Ident(str(token), Span(self.filename, token.line, token.column,
+                                      token.end_line, token.end_column))
+
+    def start(self, meta, children) -> SourceFile:
+        return SourceFile(self.filename, tuple(children))
+
+    # statements
+    def model_stmt(self, meta, children) -> ModelStmt:
+        description = str(children[1])[1:-1] if len(children) > 1 else ""
+        return ModelStmt(self._ident(children[0]), description, self._span(meta))
+
+    def param_stmt(self, meta, children) -> ParamStmt:
+        return ParamStmt(self._ident(children[0]), children[1], self._span(meta))
+
+    def gravity_stmt(self, meta, children) -> GravityStmt:
+        return GravityStmt(children[0], self._span(meta))
+
+    def ground_stmt(self, meta, children) -> GroundStmt:
+        return GroundStmt(children[0], self._span(meta))
+
+    def member_stmt(self, meta, children) -> MemberStmt:
+        kind, name, block = children
+        return MemberStmt(str(kind), self._ident(name), block, self._span(meta))
+
+    def joint_stmt(self, meta, children) -> JointStmt:
+        kind, name, a, b = children[:4]
+        block = children[4] if len(children) > 4 else None
+        return JointStmt(str(kind), self._ident(name), a, b, block, self._span(meta))
+
+    def cable_stmt(self, meta, children) -> CableStmt:
+        return CableStmt(self._ident(children[0]), children[1], self._span(meta))
+
+    def initial_stmt(self, meta, children) -> InitialStmt:
+        return InitialStmt(children[0], self._span(meta))
+
+    def simulate_stmt(self, meta, children) -> SimulateStmt:
+        return SimulateStmt(children[0], self._span(meta))
+
+    def output_stmt(self, meta, children) -> OutputStmt:
+        return OutputStmt(self._ident(children[0]), children[1], self._span(meta))
+
+    def attachment(self, meta, children) -> AttachmentRef:
+        member, point = children
+        return AttachmentRef(self._ident(member), self._ident(point), self._span(meta))
+
+    # blocks
+    def block(self, meta, children) -> Block:
+        return Block(tuple(children), self._span(meta))
+
+    def attribute(self, meta, children) -> AttributeItem:
+        *names, value = children
+        sub = self._ident(names[1]) if len(names) > 1 else None
+        return AttributeItem(self._ident(names[0]), sub, value, self._span(meta))
+
+    def point(self, meta, children) -> PointItem:
+        return PointItem(self._ident(children[0]), children[1], self._span(meta))
+
+    def vector(self, meta, children) -> VectorLit:
+        x, y = children[:2]
+        unit = children[2] if len(children) > 2 else None
+        unit_span = self._ident(unit).span if unit is not None else None
+        return VectorLit(x, y, str(unit) if unit is not None else None, unit_span,
+                         self._span(meta))
+
+    # expressions
+    def number(self, meta, children) -> NumberLit:
+        token = children[0]
+        return NumberLit(float(token), str(token), self._span(meta))
+
+    def ref(self, meta, children) -> NameRef:
+        return NameRef(tuple(self._ident(t) for t in children), self._span(meta))
+
+    def call(self, meta, children) -> CallExpr:
+        func, *args = children
+        return CallExpr(self._ident(func), tuple(args), self._span(meta))
+
+    def with_unit(self, meta, children) -> Quantity:
+        value, unit = children
+        return Quantity(value, str(unit), self._ident(unit).span, self._span(meta))
+
+    def _binary(op: str):  # noqa: N805 - builds one method per operator
+        def method(self, meta, children) -> BinaryOp:
+            left, right = children
+            return BinaryOp(op, left, right, self._span(meta))
+        return method
+
+    add = _binary("+")
+    sub = _binary("-")
+    mul = _binary("*")
+    div = _binary("/")
+    pow = _binary("^")
+
+    def neg(self, meta, children) -> UnaryOp:
+        return UnaryOp("-", children[0], self._span(meta))
+
+    def pos(self, meta, children) -> UnaryOp:
+        return UnaryOp("+", children[0], self._span(meta))
