@@ -1,1 +1,11 @@
-"""depsim.codegen"""
+"""depsim.codegen: checked model -> symbolic system (derive) -> view-models (lower) -> code (emit).
+
+Public API: `derive`, `compile_numpy`, `numpy_source`, `load_generated`, `CodegenError`,
+`SymbolicSystem`."""
+
+from .derive import SymbolicSystem, derive
+from .emit import compile_numpy, load_generated, numpy_source
+from .errors import CodegenError
+
+__all__ = ["CodegenError", "SymbolicSystem", "compile_numpy", "derive", "load_generated",
+           "numpy_source"]

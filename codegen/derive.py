@@ -1,0 +1,158 @@
+"""derive: a checked IR Model to a SymbolicSystem (pure mathematics, no strings of code).
+
+Equations (docs/generated-module.md, METHOD.md section 1):
+    M q'' + Phi_q^T lambda = f(q, q', t),   Phi(q, t) = 0,
+    Phi_q q'' = gamma = -(Phi_q q')_q q' - 2 Phi_qt q' - Phi_tt.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import sympy
+from sympy import ImmutableMatrix
+
+from depsim.dsl import ir
+
+from .assembly import assemble
+from .expr import to_sympy
+from .kinematics import Coordinates, Kinematics
+from .layout import build_coordinates
+from .loads import derive_loads
+
+# Per-hinge settings the runtime applies itself (latches, stops, stick-slip), as functions of p.
+HINGE_PROPERTIES = ("latch", "latch_stiffness", "latch_damping", "stop_min", "stop_max",
+                    "friction", "static_friction", "slip_rate")
+
+
+@dataclass(frozen=True)
+class SymbolicSystem:
+    """A model's equations as sympy objects over the ordered symbols q, qd, p, t.
+
+    Column vectors are (n, 1) ImmutableMatrix; names tuples give each row's meaning.
+    """
+
+    name: str
+    coordinates: tuple[str, ...]  # NQ names, e.g. "yoke.phi"
+    q: tuple[sympy.Symbol, ...]
+    qd: tuple[sympy.Symbol, ...]
+    p: tuple[sympy.Symbol, ...]  # named after Model.params
+    t: sympy.Symbol
+    mass_matrix: ImmutableMatrix  # (NQ, NQ), a function of p only
+    constraint_names: tuple[str, ...]  # NC rows, "<joint>.<component>"
+    constraint_joints: tuple[str, ...]
+    phi: ImmutableMatrix  # (NC, 1)
+    phi_q: ImmutableMatrix  # (NC, NQ)
+    phi_q_pattern: tuple[tuple[int, int], ...]  # structural non-zeros of phi_q, row-major
+    phi_t: ImmutableMatrix  # (NC, 1)
+    gamma: ImmutableMatrix  # (NC, 1)
+    force: ImmutableMatrix  # (NQ, 1)
+    hinge_names: tuple[str, ...]
+    slider_names: tuple[str, ...]
+    hinge_angles: ImmutableMatrix  # (NH, 1)
+    hinge_rates: ImmutableMatrix  # (NH, 1)
+    hinge_jacobian: ImmutableMatrix  # (NH, NQ)
+    hinge_gamma: ImmutableMatrix  # (NH, 1), -(J qd)_q qd: a lock J qdd = hinge_gamma
+    hinge_properties: ImmutableMatrix  # (NH, len(HINGE_PROPERTIES)), nan where not given
+    output_names: tuple[str, ...]
+    outputs: ImmutableMatrix  # (NOUT, 1)
+    energy_names: tuple[str, ...]
+    energy: ImmutableMatrix  # (NE, 1), J
+    dissipator_names: tuple[str, ...]
+    dissipation: ImmutableMatrix  # (ND, 1), W
+    q0: ImmutableMatrix  # (NQ, 1), a function of p
+    qd0: ImmutableMatrix  # (NQ, 1), a function of p
+
+
+def column(values) -> ImmutableMatrix:
+    """An (n, 1) immutable column, also for n = 0."""
+    values = list(values)
+    return ImmutableMatrix(len(values), 1, values)
+
+
+def jacobian(vector: ImmutableMatrix, symbols: tuple[sympy.Symbol, ...]) -> ImmutableMatrix:
+    """d vector / d symbols, (rows, len(symbols)), also for empty vectors."""
+    return ImmutableMatrix(vector.rows, len(symbols),
+                           [vector[i].diff(s) for i in range(vector.rows) for s in symbols])
+
+
+def acceleration_rhs(vector: ImmutableMatrix, vector_q: ImmutableMatrix,
+                     symbols: Coordinates) -> ImmutableMatrix:
+    """gamma = -(V_q qd)_q qd - 2 V_qt qd - V_tt of a vector V(q, t): V_q qdd = gamma is
+    d^2 V / dt^2 = 0 along the motion (equation 2c)."""
+    qd, t = column(symbols.qd), symbols.t
+    return ImmutableMatrix(-jacobian(vector_q * qd, symbols.q) * qd
+                           - 2 * vector_q.diff(t) * qd - vector.diff(t, 2))
+
+
+def derive(model: ir.Model) -> SymbolicSystem:
+    """Derive the symbolic system of a checked model (parameters stay symbols)."""
+    symbols, beams = build_coordinates(model)
+    assembly = assemble(model, Kinematics(model, symbols, beams))
+    kin = Kinematics(model, symbols, beams, assembly.beam_angles)
+    q0, qd0 = assembly.q0, assembly.qd0
+    q, qd, t = symbols.q, column(symbols.qd), symbols.t
+    rows = _constraints(model, kin, q0)
+    phi = column(residual for _, _, residual in rows)
+    phi_q = jacobian(phi, q)
+    phi_t = phi.diff(t)
+    thetas = column(kin.hinge_theta(i) for i in range(len(model.hinges)))
+    hinge_jacobian = jacobian(thetas, q)
+    mass = _mass_matrix(model, kin)
+    loads = derive_loads(model, kin, mass, list(thetas), hinge_jacobian)
+    return SymbolicSystem(
+        name=model.name, coordinates=symbols.names, q=q, qd=symbols.qd, p=symbols.p, t=t,
+        mass_matrix=mass, constraint_names=tuple(name for name, _, _ in rows),
+        constraint_joints=tuple(joint for _, joint, _ in rows),
+        phi=phi, phi_q=phi_q, phi_q_pattern=_pattern(phi_q), phi_t=phi_t,
+        gamma=acceleration_rhs(phi, phi_q, symbols), force=column(loads.force),
+        hinge_names=tuple(h.name for h in model.hinges),
+        slider_names=tuple(s.name for s in model.sliders),
+        hinge_angles=thetas, hinge_rates=ImmutableMatrix(hinge_jacobian * qd),
+        hinge_jacobian=hinge_jacobian,
+        hinge_gamma=acceleration_rhs(thetas, hinge_jacobian, symbols),
+        hinge_properties=_hinge_properties(model, kin),
+        output_names=tuple(o.name for o in model.outputs),
+        outputs=column(to_sympy(o.expr, kin) for o in model.outputs),
+        energy_names=loads.energy_names, energy=column(loads.energies),
+        dissipator_names=loads.dissipator_names, dissipation=column(loads.dissipation),
+        q0=column(q0), qd0=column(qd0),
+    )
+
+
+def _constraints(model: ir.Model, kin: Kinematics, q0: tuple[sympy.Expr, ...]):
+    """(row name, joint name, residual) of every constraint row, hinges then sliders."""
+    rows = []
+    for hinge in model.hinges:
+        ra, rb = kin.attachment_position(hinge.a), kin.attachment_position(hinge.b)
+        rows += [(f"{hinge.name}.x", hinge.name, ra[0] - rb[0]),
+                 (f"{hinge.name}.y", hinge.name, ra[1] - rb[1])]
+    initial = dict(zip(kin.symbols.q, q0))
+    for index, slider in enumerate(model.sliders):
+        (ux, uy), (dx, dy) = kin.slider_axis(index), kin.slider_offset(index)
+        relative = kin.attachment_angle(slider.b) - kin.attachment_angle(slider.a)
+        rows += [(f"{slider.name}.normal", slider.name, ux * dy - uy * dx),
+                 (f"{slider.name}.angle", slider.name, relative - relative.xreplace(initial))]
+    return rows
+
+
+def _hinge_properties(model: ir.Model, kin: Kinematics) -> ImmutableMatrix:
+    """HINGE_PROPERTIES of each hinge (SI), sympy.nan for an attribute the model leaves out."""
+    return ImmutableMatrix(len(model.hinges), len(HINGE_PROPERTIES), [
+        sympy.nan if getattr(hinge, name) is None else kin.const(getattr(hinge, name))
+        for hinge in model.hinges for name in HINGE_PROPERTIES])
+
+
+def _mass_matrix(model: ir.Model, kin: Kinematics) -> ImmutableMatrix:
+    """Constant M: diag(m, m, J) per rigid body, then each beam's element mass matrix."""
+    blocks = [sympy.diag(kin.const(b.mass), kin.const(b.mass), kin.const(b.inertia))
+              for b in model.bodies]
+    blocks += [sympy.Matrix(element.mass_matrix) for element in kin.beams]
+    size = len(kin.symbols.q)
+    return ImmutableMatrix(sympy.diag(*blocks)) if blocks else ImmutableMatrix.zeros(size, size)
+
+
+def _pattern(matrix: ImmutableMatrix) -> tuple[tuple[int, int], ...]:
+    """Structural non-zeros, row-major."""
+    return tuple((i, j) for i in range(matrix.rows) for j in range(matrix.cols)
+                 if matrix[i, j] != 0)

@@ -1,0 +1,75 @@
+"""The coordinate layout: (x, y, phi) per rigid body in body order, then each beam's
+coordinates in beam order; and the ordered symbols q, q', p, t."""
+
+from __future__ import annotations
+
+import importlib
+from types import ModuleType
+from typing import Any
+
+import sympy
+
+from depsim.dsl import ir
+
+from .errors import CodegenError
+from .expr import ConstantScope, to_sympy
+from .kinematics import Coordinates
+
+RIGID_COORDINATES = ("x", "y", "phi")
+
+
+def load_beam_module() -> ModuleType | None:
+    """codegen/beam.py (the flexible beam element) if it is present, else None."""
+    try:
+        return importlib.import_module("depsim.codegen.beam")
+    except ModuleNotFoundError as error:
+        if error.name != "depsim.codegen.beam":
+            raise
+        return None
+
+
+def _symbol(name: str) -> sympy.Symbol:
+    # No assumptions (real=True would make every derivative query them: about 2.5x slower on
+    # two_link_flex). Nothing derive differentiates contains abs/sign of a coordinate.
+    return sympy.Symbol(name)
+
+
+def build_coordinates(model: ir.Model) -> tuple[Coordinates, tuple[Any, ...]]:
+    """The model's ordered symbols and one beam element (BeamSymbolic) per beam."""
+    p = tuple(_symbol(param.name) for param in model.params)
+    t = _symbol("t")
+    names = [f"{body.name}.{c}" for body in model.bodies for c in RIGID_COORDINATES]
+    q = [_symbol(name) for name in names]
+    beam_q, elements = [], []
+    module = load_beam_module() if model.beams else None
+    scope = ConstantScope(p, t)
+    for beam in model.beams:
+        if module is None:
+            raise CodegenError("E901", f"beam '{beam.name}': flexible beams are not available "
+                               "in this build (codegen/beam.py is missing)", beam.span)
+        symbols = tuple(_symbol(f"{beam.name}.q{k}") for k in range(module.coordinate_count(beam)))
+        element = module.beam_element(beam, list(symbols), lambda e: to_sympy(e, scope))
+        assert len(element.coordinate_names) == len(symbols), "beam coordinate count mismatch"
+        names += [_prefixed(beam.name, name) for name in element.coordinate_names]
+        q += symbols
+        beam_q.append(symbols)
+        elements.append(element)
+    qd = [_symbol(symbol.name + "'") for symbol in q]
+    _check_distinct(model, p, [t, *q, *qd])
+    return Coordinates(tuple(names), tuple(q), tuple(qd), p, t, tuple(beam_q)), tuple(elements)
+
+
+def _prefixed(beam: str, name: str) -> str:
+    return name if name.startswith(beam + ".") else f"{beam}.{name}"
+
+
+def _check_distinct(model: ir.Model, p: tuple[sympy.Symbol, ...],
+                    others: list[sympy.Symbol]) -> None:
+    """Symbols are equal when their names are: a parameter must not share a name with time,
+    a coordinate or another parameter."""
+    seen = {symbol.name for symbol in others}
+    for param, symbol in zip(model.params, p):
+        if symbol.name in seen:
+            raise CodegenError("E902", f"parameter name '{param.name}' is used twice or is "
+                               "reserved", param.span, "rename the parameter")
+        seen.add(symbol.name)

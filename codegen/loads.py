@@ -1,0 +1,137 @@
+"""Energies, dissipation and the generalized applied force.
+
+Potentials (hinge springs, cable loops, gravity, beam elasticity) give f = -dV/dq exactly, so
+a free conservative model conserves energy. Hinge friction and damping are torques tau on the
+hinge angle theta, mapped to generalized forces Q = (d theta/dq)^T tau."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import sympy
+
+from depsim.dsl import ir
+
+from .kinematics import Kinematics
+
+
+@dataclass(frozen=True)
+class Loads:
+    """Named energy terms (J), dissipated powers (W) and the applied force f (NQ)."""
+
+    energy_names: tuple[str, ...]
+    energies: tuple[sympy.Expr, ...]
+    dissipator_names: tuple[str, ...]
+    dissipation: tuple[sympy.Expr, ...]
+    force: tuple[sympy.Expr, ...]
+
+
+def derive_loads(model: ir.Model, kin: Kinematics, mass_matrix: sympy.Matrix,
+                 thetas: list[sympy.Expr], jacobian: sympy.Matrix) -> Loads:
+    """Energies, dissipators and f for a model whose hinge angles and d theta/dq are given."""
+    qd = kin.symbols.qd
+    kinetic = sympy.Add(*(mass_matrix[i, j] * qd[i] * qd[j] / 2
+                          for i, j in _nonzero(mass_matrix)))
+    potentials = _potentials(model, kin, thetas)
+    force = _potential_force(kin, potentials)
+    dissipators = _hinge_dissipators(model, kin, jacobian) + _beam_dissipators(model, kin)
+    for _, generalized, _power in dissipators:
+        force = [f + g for f, g in zip(force, generalized)]
+    return Loads(
+        energy_names=("kinetic",) + tuple(name for name, _ in potentials),
+        energies=(kinetic,) + tuple(energy for _, energy in potentials),
+        dissipator_names=tuple(name for name, _, _ in dissipators),
+        dissipation=tuple(power for _, _, power in dissipators),
+        force=tuple(force),
+    )
+
+
+def _potential_force(kin: Kinematics, potentials: list[tuple[str, sympy.Expr]]) -> list:
+    """-dV/dq of all potentials; beam elasticity uses the element's own exact gradient."""
+    beam_forces = {f"elastic.{beam.name}": (element, symbols) for beam, element, symbols
+                   in zip(kin.model.beams, kin.beams, kin.symbols.beam_q)
+                   if hasattr(element, "elastic_force")}
+    total = sympy.Add(*(energy for name, energy in potentials if name not in beam_forces))
+    force = {s: -total.diff(s) for s in kin.symbols.q}
+    for element, symbols in beam_forces.values():
+        for s, value in zip(symbols, element.elastic_force()):
+            force[s] += value
+    return [force[s] for s in kin.symbols.q]
+
+
+def _nonzero(matrix: sympy.Matrix) -> list[tuple[int, int]]:
+    return [(i, j) for i in range(matrix.rows) for j in range(matrix.cols) if matrix[i, j] != 0]
+
+
+def _potentials(model: ir.Model, kin: Kinematics,
+                thetas: list[sympy.Expr]) -> list[tuple[str, sympy.Expr]]:
+    """(name, V) of each potential, in the order of the ENERGIES contract."""
+    terms = []
+    for hinge, theta in zip(model.hinges, thetas):
+        if hinge.stiffness is None and hinge.preload is None:
+            continue
+        energy = sympy.Integer(0)
+        if hinge.preload is not None:
+            energy -= kin.const(hinge.preload) * theta
+        if hinge.stiffness is not None:
+            energy += kin.const(hinge.stiffness) * theta**2 / 2
+        terms.append((f"spring.{hinge.name}", energy))
+    for cable in model.cables:
+        stretch = sympy.Add(*(kin.const(term.coefficient) * thetas[term.hinge]
+                              for term in cable.terms))
+        terms.append((f"cable.{cable.name}", kin.const(cable.stiffness) * stretch**2 / 2))
+    if not all(isinstance(g, ir.Num) and g.value == 0 for g in model.gravity):
+        terms.append(("gravity", _gravity(model, kin)))
+    for beam, element in zip(model.beams, kin.beams):
+        terms.append((f"elastic.{beam.name}", element.elastic_energy))
+    return terms
+
+
+def _gravity(model: ir.Model, kin: Kinematics) -> sympy.Expr:
+    """V = -sum m g . r over rigid bodies, plus each beam's integral over its mass."""
+    gx, gy = (kin.const(g) for g in model.gravity)
+    energy = sympy.Integer(0)
+    for index, body in enumerate(model.bodies):
+        x, y, _ = kin.body_symbols(index)
+        energy -= kin.const(body.mass) * (gx * x + gy * y)
+    for element in kin.beams:
+        energy += element.gravity_energy(gx, gy)
+    return energy
+
+
+Dissipator = tuple[str, list[sympy.Expr], sympy.Expr]  # name, generalized force, power removed
+
+
+def _hinge_dissipators(model: ir.Model, kin: Kinematics,
+                       jacobian: sympy.Matrix) -> list[Dissipator]:
+    """Coulomb friction (tanh-regularised) and viscous damping torques on hinge angles."""
+    qd = sympy.Matrix(kin.symbols.qd)
+    found = []
+    for index, hinge in enumerate(model.hinges):
+        row = jacobian[index, :]
+        rate = (row * qd)[0, 0]
+        if hinge.friction is not None:
+            magnitude = kin.const(hinge.friction) * sympy.tanh(rate / kin.const(hinge.slip_rate))
+            found.append((f"friction.{hinge.name}", list(-magnitude * row), magnitude * rate))
+        if hinge.damping is not None:
+            damping = kin.const(hinge.damping)
+            found.append((f"damping.{hinge.name}", list(-damping * rate * row),
+                          damping * rate**2))
+    return found
+
+
+def _beam_dissipators(model: ir.Model, kin: Kinematics) -> list[Dissipator]:
+    """Each damped beam's element damping force (when the element provides one)."""
+    found = []
+    for beam, element, symbols in zip(model.beams, kin.beams, kin.symbols.beam_q):
+        if beam.damping is None or not symbols or not hasattr(element, "damping_force"):
+            continue
+        start = kin.symbols.q.index(symbols[0])
+        rates = kin.symbols.qd[start:start + len(symbols)]
+        local = list(element.damping_force(rates))
+        generalized = [sympy.Integer(0)] * len(kin.symbols.q)
+        generalized[start:start + len(symbols)] = local
+        power = element.damping_power(rates) if hasattr(element, "damping_power") \
+            else -sympy.Add(*(r * f for r, f in zip(rates, local)))
+        found.append((f"damping.{beam.name}", generalized, power))
+    return found

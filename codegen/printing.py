@@ -1,0 +1,46 @@
+"""Code printers: sympy expressions to source text in which every input symbol is an array slot.
+
+`SlotPrinter` is the language-neutral part (slots, temporaries, exact doubles, the free-symbol
+check); a backend combines it with a sympy code printer. The NumPy module uses `PythonPrinter`
+(scalar `math` functions); the C backend combines the same mixin with sympy's C99 printer."""
+
+from __future__ import annotations
+
+from collections.abc import Collection, Mapping
+
+import sympy
+from sympy.printing.pycode import PythonCodePrinter
+
+
+class LoweringError(Exception):
+    """An expression refers to something that is not an input of the function being lowered
+    (a programmer mistake in derive, never the user's)."""
+
+
+class SlotPrinter:
+    """Mixin: prints input symbols as their slots (`q[3]`, `p[7]`, `t`) and CSE temporaries by
+    name; any other symbol is an error. Floats print as exact round-trip doubles."""
+
+    def __init__(self, slots: Mapping[sympy.Symbol, str],
+                 temporaries: Collection[sympy.Symbol] = (), settings: dict | None = None):
+        super().__init__(settings or {})
+        self.slots = dict(slots)
+        self.temporaries = frozenset(temporaries)
+
+    def _print_Symbol(self, symbol: sympy.Symbol) -> str:
+        if symbol in self.slots:
+            return self.slots[symbol]
+        if symbol in self.temporaries:
+            return symbol.name
+        raise LoweringError(f"symbol {symbol.name!r} is not an input of this function")
+
+    def _print_Float(self, value: sympy.Float) -> str:
+        return repr(float(value))
+
+
+class PythonPrinter(SlotPrinter, PythonCodePrinter):
+    """Python source over scalars: `math.sin`, `abs`, `min`; arrays indexed as `q[3]`."""
+
+    def __init__(self, slots: Mapping[sympy.Symbol, str],
+                 temporaries: Collection[sympy.Symbol] = ()):
+        super().__init__(slots, temporaries, {"strict": True, "standard": "python3"})

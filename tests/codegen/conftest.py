@@ -1,0 +1,67 @@
+"""Fixtures of the codegen tests: each model case derived and compiled once per session."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from types import ModuleType
+
+import numpy as np
+import pytest
+
+from codegen_cases import build, case_names
+from depsim.codegen import SymbolicSystem, compile_numpy, derive, load_generated
+from depsim.dsl import ir
+
+
+@dataclass(frozen=True)
+class Compiled:
+    """A model case: its IR, symbolic system and loaded generated module."""
+
+    case: str
+    model: ir.Model
+    system: SymbolicSystem
+    module: ModuleType
+
+
+@pytest.fixture(scope="session")
+def compiled_cases(tmp_path_factory):
+    """case name -> Compiled, built on first use."""
+    cache: dict[str, Compiled] = {}
+
+    def get(case: str) -> Compiled:
+        if case not in cache:
+            with pytest.MonkeyPatch.context() as monkeypatch:
+                model = build(case, monkeypatch)
+                system = derive(model)
+            out_dir = tmp_path_factory.mktemp(case.replace(":", "_"))
+            cache[case] = Compiled(case, model, system,
+                                   load_generated(compile_numpy(model, out_dir, system)))
+        return cache[case]
+
+    return get
+
+
+@pytest.fixture(params=case_names())
+def compiled(request, compiled_cases) -> Compiled:
+    """Every model case in turn."""
+    return compiled_cases(request.param)
+
+
+@dataclass(frozen=True)
+class State:
+    q: np.ndarray
+    qd: np.ndarray
+    t: float
+    p: np.ndarray
+
+
+def random_states(module: ModuleType, count: int = 3, seed: int = 7) -> list[State]:
+    """Random states near the assembled initial pose, with perturbed positive parameters."""
+    rng = np.random.default_rng(seed)
+    states = []
+    for _ in range(count):
+        p = np.array(module.PARAMETER_DEFAULTS) * rng.uniform(0.9, 1.1, module.NP)
+        q0, _ = module.initial_state(p)
+        q = q0 + 0.05 * rng.standard_normal(module.NQ)
+        states.append(State(q, rng.standard_normal(module.NQ), float(rng.uniform(0, 2)), p))
+    return states

@@ -1,0 +1,130 @@
+"""The generated derivatives against finite differences of the generated values, at random
+states of every model case: Phi_q, Phi_t, gamma, the conservative force, the hinge jacobian;
+and the non-conservative force against the reported dissipation."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from conftest import random_states
+
+H = 1e-6  # first differences
+H2 = 1e-4  # second differences
+
+
+def dense_phi_q(module, q, t, p):
+    jacobian = np.zeros((module.NC, module.NQ))
+    jacobian[module.PHI_Q_ROWS, module.PHI_Q_COLS] = module.phi_q(q, t, p)
+    return jacobian
+
+
+def central_jacobian(function, x):
+    """d function / d x by central differences, shape (len(function(x)), len(x))."""
+    columns = []
+    for i in range(len(x)):
+        step = np.zeros_like(x)
+        step[i] = H
+        columns.append((function(x + step) - function(x - step)) / (2 * H))
+    return np.array(columns).T.reshape(len(function(x)), len(x))
+
+
+def assert_close(actual, expected, rtol=1e-6):
+    scale = max(1.0, float(np.max(np.abs(expected), initial=0.0)))
+    np.testing.assert_allclose(actual, expected, rtol=0, atol=rtol * scale)
+
+
+def test_phi_q_is_the_jacobian_of_phi(compiled):
+    m = compiled.module
+    for s in random_states(m):
+        numeric = central_jacobian(lambda q: m.phi(q, s.t, s.p), s.q)
+        assert_close(dense_phi_q(m, s.q, s.t, s.p), numeric)
+
+
+def test_phi_q_pattern_is_sorted_and_unique(compiled):
+    m = compiled.module
+    pairs = list(zip(m.PHI_Q_ROWS, m.PHI_Q_COLS))
+    assert pairs == sorted(set(pairs))
+    assert all(0 <= r < m.NC and 0 <= c < m.NQ for r, c in pairs)
+
+
+def test_phi_t_is_the_time_derivative_of_phi(compiled):
+    m = compiled.module
+    for s in random_states(m):
+        numeric = (m.phi(s.q, s.t + H, s.p) - m.phi(s.q, s.t - H, s.p)) / (2 * H)
+        assert_close(m.phi_t(s.q, s.t, s.p), numeric)
+
+
+def test_gamma_is_minus_the_second_derivative_along_the_motion(compiled):
+    """d^2/ds^2 Phi(q + s qd, t + s) = (Phi_q qd)_q qd + 2 Phi_qt qd + Phi_tt = -gamma."""
+    m = compiled.module
+    for s in random_states(m):
+        def along(step):
+            return m.phi(s.q + step * s.qd, s.t + step, s.p)
+        second = (along(H2) - 2 * along(0.0) + along(-H2)) / H2**2
+        assert_close(m.gamma(s.q, s.qd, s.t, s.p), -second, rtol=1e-5)
+
+
+def test_conservative_force_is_minus_the_potential_gradient(compiled):
+    """At rest friction and damping vanish: f(q, 0) = -d(sum of potentials)/dq."""
+    m = compiled.module
+    rest = np.zeros(m.NQ)
+    for s in random_states(m):
+        def potential(q):
+            return np.array([np.sum(m.energy(q, rest, s.t, s.p)[1:])])
+        gradient = central_jacobian(potential, s.q)[0]
+        assert_close(m.force(s.q, rest, s.t, s.p), -gradient)
+
+
+def test_dissipation_is_the_power_of_the_non_conservative_force(compiled):
+    m = compiled.module
+    for s in random_states(m):
+        moving = m.force(s.q, s.qd, s.t, s.p)
+        non_conservative = moving - m.force(s.q, 0 * s.qd, s.t, s.p)
+        dissipation = m.dissipation(s.q, s.qd, s.t, s.p)
+        assert np.all(dissipation >= 0)
+        roundoff = 1e-12 * np.abs(moving) @ np.abs(s.qd)  # f(q, qd) - f(q, 0) cancels
+        np.testing.assert_allclose(np.sum(dissipation), -non_conservative @ s.qd,
+                                   rtol=1e-10, atol=roundoff)
+
+
+def test_hinge_jacobian_and_rates(compiled):
+    m = compiled.module
+    for s in random_states(m):
+        numeric = central_jacobian(lambda q: m.hinge_angles(q, s.p), s.q)
+        jacobian = m.hinge_jacobian(s.q, s.p)
+        assert_close(jacobian, numeric)
+        assert_close(m.hinge_rates(s.q, s.qd, s.p), jacobian @ s.qd, rtol=1e-12)
+
+
+def test_hinge_gamma_is_minus_the_second_derivative_of_theta(compiled):
+    m = compiled.module
+    for s in random_states(m):
+        def along(step):
+            return m.hinge_angles(s.q + step * s.qd, s.p)
+        second = (along(H2) - 2 * along(0.0) + along(-H2)) / H2**2
+        assert_close(m.hinge_gamma(s.q, s.qd, s.p), -second, rtol=1e-5)
+
+
+def test_kinetic_energy_and_mass_matrix(compiled):
+    m = compiled.module
+    for s in random_states(m):
+        mass = m.mass_matrix(s.p)
+        np.testing.assert_array_equal(mass, mass.T)
+        assert np.all(np.linalg.eigvalsh(mass) > 0)
+        assert_close(m.energy(s.q, s.qd, s.t, s.p)[0], 0.5 * s.qd @ mass @ s.qd, rtol=1e-12)
+
+
+def test_module_matches_sympy(compiled):
+    """The printed code evaluates to what the symbolic system does (checks lower and emit)."""
+    m, system = compiled.module, compiled.system
+    s = random_states(m, count=1)[0]
+    values = dict(zip(system.q, s.q)) | dict(zip(system.qd, s.qd)) | dict(zip(system.p, s.p))
+    values[system.t] = s.t
+
+    def symbolic(matrix):
+        return np.array(matrix.xreplace(values).evalf(), dtype=float).reshape(matrix.shape)
+
+    assert_close(m.force(s.q, s.qd, s.t, s.p), symbolic(system.force)[:, 0], rtol=1e-12)
+    assert_close(m.gamma(s.q, s.qd, s.t, s.p), symbolic(system.gamma)[:, 0], rtol=1e-12)
+    assert_close(m.outputs(s.q, s.qd, s.t, s.p), symbolic(system.outputs)[:, 0], rtol=1e-12)
+    assert_close(m.energy(s.q, s.qd, s.t, s.p), symbolic(system.energy)[:, 0], rtol=1e-12)
