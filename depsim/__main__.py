@@ -1,0 +1,7 @@
+"""`python -m depsim` runs the command line."""
+
+import sys
+
+from depsim.cli import main
+
+sys.exit(main())
