@@ -1,0 +1,44 @@
+"""`plot_outputs`: every output of a Result against time, one panel each, as a PNG."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .results import atomic_path
+
+
+def plot_outputs(result, path) -> None:
+    """Write a PNG with one panel per output vs time (s), titled with the model name.
+
+    Outputs in "rad" are drawn in degrees, "rad/s" in deg/s; events are marked by vertical
+    lines. Renders with matplotlib's Agg canvas (no display, no pyplot state); the file is written
+    atomically.
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    count = max(1, len(result.output_names))
+    figure = Figure(figsize=(8, 2.2 * count + 0.6), layout="constrained")
+    FigureCanvasAgg(figure)  # no pyplot, no global backend switch
+    axes = figure.subplots(count, 1, sharex=True, squeeze=False)[:, 0]
+    for ax, name, unit, column in zip(axes, result.output_names, result.output_units,
+                                      result.outputs.T):
+        values, unit = _display(column, unit)
+        ax.plot(result.times, values, lw=1.2)
+        ax.set_ylabel(f"{name} [{unit}]" if unit else name)
+        ax.grid(True, alpha=0.3)
+        for event in result.events:
+            ax.axvline(event.t, color="0.5", lw=0.8, ls="--")
+    axes[-1].set_xlabel("t [s]")
+    figure.suptitle(result.model)
+    with atomic_path(path) as tmp:
+        figure.savefig(tmp, format="png", dpi=100)
+
+
+def _display(values: np.ndarray, unit: str) -> tuple[np.ndarray, str]:
+    """Angles in degrees for display; everything else as is (SI)."""
+    if unit == "rad":
+        return np.degrees(values), "deg"
+    if unit == "rad/s":
+        return np.degrees(values), "deg/s"
+    return values, unit

@@ -1,0 +1,174 @@
+"""A run's results: arrays at the output times, statistics, events, and their export.
+
+Arrays have one row per output time (n,). Multipliers have one column per constraint row that
+was active at any time (`constraint_names`), NaN where the row was not active. Files are
+written atomically (a temporary file in the same folder, then a rename), so a failure never
+leaves a half-written file.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import json
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+
+@dataclass(frozen=True, slots=True)
+class PassStats:
+    """Iterations of (6) per step for one pass: mean, max, total."""
+
+    mean: float = 0.0
+    max: int = 0
+    total: int = 0
+
+
+@dataclass(frozen=True, slots=True)
+class Stats:
+    """Work and accuracy of one run.
+
+    max_v_pos / max_v_vel / max_v_acc are the largest constraint residuals (SI; max over rows)
+    at the accepted step points; `failed_steps` counts steps retried because a pass did not
+    converge; `factorizations` counts augmented-matrix factorisations (direct solver only).
+    """
+
+    accepted_steps: int = 0
+    rejected_steps: int = 0
+    failed_steps: int = 0
+    integrations: int = 0
+    rhs_evaluations: int = 0
+    position: PassStats = PassStats()
+    velocity: PassStats = PassStats()
+    acceleration: PassStats = PassStats()
+    cg_iterations: int = 0
+    factorizations: int = 0
+    max_v_pos: float = 0.0
+    max_v_vel: float = 0.0
+    max_v_acc: float = 0.0
+    min_step: float = 0.0
+    max_step: float = 0.0
+    events: int = 0
+
+
+@dataclass(frozen=True, slots=True)
+class EventRecord:
+    """An event that fired: its name, time (s) and plain numbers (e.g. energy lost, J)."""
+
+    name: str
+    t: float
+    data: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Result:
+    """Everything a run produced. Shapes: n output times, NQ coordinates, rows ever active."""
+
+    model: str
+    method: str  # "iterative" or "direct"
+    parameter_names: tuple[str, ...]
+    parameters: np.ndarray  # (NP,) SI values used
+    tol: float
+    constraint_tol: float | None  # the passes' iteration tolerance (iterative method only)
+    t_end: float
+    dt_out: float
+    times: np.ndarray  # (n,) s
+    coordinate_names: tuple[str, ...]
+    q: np.ndarray  # (n, NQ)
+    qd: np.ndarray  # (n, NQ)
+    constraint_names: tuple[str, ...]
+    lam: np.ndarray  # (n, rows), NaN where inactive; lambda by its interpolation over a step
+    hinge_names: tuple[str, ...]
+    hinge_angles: np.ndarray  # (n, NH) rad
+    hinge_rates: np.ndarray  # (n, NH) rad/s
+    output_names: tuple[str, ...]
+    output_units: tuple[str, ...]
+    outputs: np.ndarray  # (n, NOUT) SI
+    residual_pos: np.ndarray  # (n,) max |Phi|
+    residual_vel: np.ndarray  # (n,) max |Phi_q qd + Phi_t|
+    residual_acc: np.ndarray  # (n,) max |gamma - Phi_q qdd| with the interpolated lambda
+    energy_names: tuple[str, ...]
+    energy: np.ndarray  # (n, NE) J
+    dissipator_names: tuple[str, ...]
+    dissipated: np.ndarray  # (n, ND) J, work removed since t = 0
+    stats: Stats
+    events: tuple[EventRecord, ...]
+
+    def output(self, name: str) -> np.ndarray:
+        """The column of output `name` (n,)."""
+        if name not in self.output_names:
+            raise KeyError(f"no output '{name}' (outputs: {', '.join(self.output_names)})")
+        return self.outputs[:, self.output_names.index(name)]
+
+    def total_energy(self) -> np.ndarray:
+        """Kinetic + potential energy + energy dissipated so far (n,), J: constant when the
+        model's forces are all accounted for."""
+        return self.energy.sum(axis=1) + self.dissipated.sum(axis=1)
+
+    def to_csv(self, path) -> None:
+        """`t` then one column per output (SI), header names exactly the output names, %.17g."""
+        table = np.column_stack((self.times, self.outputs))
+        header = ",".join(("t",) + self.output_names)
+        lines = [header] + [",".join(f"{v:.17g}" for v in row) for row in table]
+        _write_atomic(path, "\n".join(lines) + "\n")
+
+    def summary(self) -> dict:
+        """Model, parameters, tolerances, statistics and events as plain JSON-ready data."""
+        return {
+            "model": self.model,
+            "method": self.method,
+            "parameters": dict(zip(self.parameter_names, map(float, self.parameters))),
+            "tolerances": {"tol": self.tol, "constraint_tol": self.constraint_tol,
+                           "t_end": self.t_end, "dt_out": self.dt_out},
+            "statistics": dataclasses.asdict(self.stats),
+            "events": [{"name": e.name, "t": e.t, **e.data} for e in self.events],
+        }
+
+    def to_json(self, path) -> None:
+        """The `summary()` as JSON."""
+        _write_atomic(path, json.dumps(self.summary(), indent=2) + "\n")
+
+    def report(self) -> str:
+        """A few human-readable lines on the run."""
+        s = self.stats
+        lines = [
+            f"{self.model}: {len(self.times)} output times to t = {self.times[-1]:.6g} s "
+            f"({self.method}, tol = {self.tol:.1e})",
+            f"  steps: {s.accepted_steps} accepted, {s.rejected_steps} rejected, "
+            f"{s.failed_steps} retried; {s.rhs_evaluations} force evaluations",
+            f"  iterations per step: position {s.position.mean:.2f} (max {s.position.max}), "
+            f"velocity {s.velocity.mean:.2f} (max {s.velocity.max}), "
+            f"acceleration {s.acceleration.mean:.2f} (max {s.acceleration.max})",
+            f"  largest constraint residuals at steps: position {s.max_v_pos:.1e}, "
+            f"velocity {s.max_v_vel:.1e}, acceleration {s.max_v_acc:.1e}",
+        ]
+        lines += [f"  event {e.name} at t = {e.t:.9g} s" for e in self.events]
+        return "\n".join(lines)
+
+
+def _write_atomic(path, text: str) -> None:
+    with atomic_path(path) as tmp:
+        with open(tmp, "w", encoding="utf-8", newline="\n") as handle:
+            handle.write(text)
+
+
+@contextlib.contextmanager
+def atomic_path(path):
+    """Yield a temporary path beside `path`; on success it replaces `path` (with the usual
+    permissions, 0666 less the umask), on failure it is removed and `path` is left alone."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    os.close(fd)
+    try:
+        yield tmp
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)
+        os.replace(tmp, path)
+    except BaseException:
+        os.unlink(tmp)
+        raise

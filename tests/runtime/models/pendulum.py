@@ -1,0 +1,98 @@
+"""Hand-made module: a rigid bar pendulum in absolute coordinates (x, y, phi).
+
+Written by hand from docs/generated-module.md, independently of depsim.codegen, as a
+reference for the runtime and a cross-check of the generated pendulum.
+
+The bar (length L, mass m, inertia J = m L^2 / 12 about its centre) has end a at
+(-L/2, 0) in body coordinates, held at the origin by hinge `pivot`; gravity g along -y.
+Hinge angle theta = phi + pi/2 (0 hanging down, counter-clockwise positive). Optional viscous
+damping c (N m s/rad) on the hinge.
+"""
+
+import numpy as np
+
+MODEL_NAME = "pendulum"
+SOURCE_FILE = "pendulum.py"
+SOURCE_SHA256 = "0" * 64
+DEPSIM_VERSION = "hand-made"
+NQ, NC, NP = 3, 2, 6
+COORDINATES = ("rod.x", "rod.y", "rod.phi")
+PARAMETERS = ("L", "m", "g", "theta0", "omega0", "c")
+PARAMETER_DEFAULTS = (1.0, 2.0, 9.81, np.pi / 3, 0.0, 0.0)
+PARAMETER_UNITS = ("m", "kg", "m/s^2", "rad", "rad/s", "N*m*s/rad")
+CONSTRAINTS = ("pivot.x", "pivot.y")
+CONSTRAINT_JOINTS = ("pivot", "pivot")
+PHI_Q_ROWS = (0, 0, 1, 1)
+PHI_Q_COLS = (0, 2, 1, 2)
+HINGES = ("pivot",)
+SLIDERS = ()
+OUTPUTS = ("theta", "omega", "tip_x", "tip_y")
+OUTPUT_UNITS = ("rad", "rad/s", "m", "m")
+ENERGIES = ("kinetic", "gravity")
+DISSIPATORS = ("damping.pivot",)
+T_END, TOL, DT_OUT = 10.0, 1e-9, 0.01
+
+
+def mass_matrix(p):
+    L, m = p[0], p[1]
+    return np.diag([m, m, m * L * L / 12])
+
+
+def initial_state(p):
+    L, theta0, omega0 = p[0], p[3], p[4]
+    phi = theta0 - np.pi / 2
+    q = np.array([L / 2 * np.cos(phi), L / 2 * np.sin(phi), phi])
+    qd = np.array([-L / 2 * np.sin(phi) * omega0, L / 2 * np.cos(phi) * omega0, omega0])
+    return q, qd
+
+
+def phi(q, t, p):
+    L = p[0]
+    return np.array([q[0] - L / 2 * np.cos(q[2]), q[1] - L / 2 * np.sin(q[2])])
+
+
+def phi_q(q, t, p):
+    L = p[0]
+    return np.array([1.0, L / 2 * np.sin(q[2]), 1.0, -L / 2 * np.cos(q[2])])
+
+
+def phi_t(q, t, p):
+    return np.zeros(2)
+
+
+def gamma(q, qd, t, p):
+    L, w = p[0], qd[2]
+    return np.array([-L / 2 * np.cos(q[2]) * w * w, -L / 2 * np.sin(q[2]) * w * w])
+
+
+def force(q, qd, t, p):
+    m, g, c = p[1], p[2], p[5]
+    return np.array([0.0, -m * g, -c * qd[2]])
+
+
+def hinge_angles(q, p):
+    return np.array([q[2] + np.pi / 2])
+
+
+def hinge_rates(q, qd, p):
+    return np.array([qd[2]])
+
+
+def hinge_jacobian(q, p):
+    return np.array([[0.0, 0.0, 1.0]])
+
+
+def outputs(q, qd, t, p):
+    L = p[0]
+    return np.array([q[2] + np.pi / 2, qd[2], q[0] + L / 2 * np.cos(q[2]),
+                     q[1] + L / 2 * np.sin(q[2])])
+
+
+def energy(q, qd, t, p):
+    L, m, g = p[0], p[1], p[2]
+    kinetic = 0.5 * m * (qd[0] ** 2 + qd[1] ** 2) + 0.5 * m * L * L / 12 * qd[2] ** 2
+    return np.array([kinetic, m * g * q[1]])
+
+
+def dissipation(q, qd, t, p):
+    return np.array([p[5] * qd[2] ** 2])
