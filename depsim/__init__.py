@@ -7,12 +7,12 @@
 
 __version__ = "0.1.0"
 
-__all__ = ["Model", "Simulator", "load", "__version__"]
+__all__ = ["Model", "Simulator", "load", "sweep", "__version__"]
 
 
 def __getattr__(name: str):
     # The facade is imported on first use, so `import depsim.dsl` stays independent of it.
-    if name in ("Model", "Simulator", "load"):
+    if name in ("Model", "Simulator", "load", "sweep"):
         from depsim import api
 
         return getattr(api, name)

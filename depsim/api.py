@@ -129,3 +129,25 @@ def _parameter_value(param: ir.Param, value: float | str) -> float:
     if not np.isfinite(value):
         raise UsageError(f"bad value for '{param.name}': {value} is not a finite number")
     return value
+
+
+def sweep(sim: Simulator, *, grid=None, samples=None, runs=None, seed=None, metrics=None,
+          t_end=None, dt_out=None, tol=None, time_grid=None, workers=None, scheduler=None,
+          out=None, resume=False, progress=None):
+    """Run a parameter study of a compiled model; returns an xarray Dataset (also written to
+    `out` as NetCDF). `grid`: ["NAME=START:STOP:N", ...]; `samples`: ["NAME=normal(MU,SIGMA)",
+    "NAME=uniform(A,B)", ...] with `runs` and `seed`. Values may carry units ("1.5N*m").
+    `scheduler`: None for a local process pool, or a Dask scheduler address / Client.
+    See docs/api.md."""
+    from depsim.runtime import sweep as studies
+
+    index = {name: i for i, name in enumerate(sim.parameter_names)}
+
+    def quantity(name: str, text: str) -> float:
+        return float(sim.parameters({name: text})[index[name]])
+
+    return studies.sweep(sim.module, grid=grid, samples=samples, runs=runs, seed=seed,
+                         metrics=metrics, t_end=t_end, dt_out=dt_out, tol=tol,
+                         time_grid=time_grid, workers=workers, scheduler=scheduler, out=out,
+                         resume=resume, progress=progress, quantity=quantity,
+                         defaults=sim.defaults)

@@ -34,6 +34,7 @@ def _report(exc: Exception) -> int | None:
     from depsim.dsl import ModelError, format_diagnostics
     from depsim.errors import UsageError
     from depsim.runtime import SolverError
+    from depsim.runtime.sweep import CheckpointError, StudyError, SweepSpecError
 
     if isinstance(exc, ModelError):
         print(format_diagnostics(exc.diagnostics, exc.source), file=sys.stderr, end="")
@@ -44,6 +45,12 @@ def _report(exc: Exception) -> int | None:
     if isinstance(exc, UsageError):
         print(f"depsim: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
+    if isinstance(exc, (SweepSpecError, CheckpointError)):
+        print(f"depsim: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    if isinstance(exc, StudyError):
+        print(f"depsim: study stopped: {exc}", file=sys.stderr)
+        return EXIT_SOLVER
     if isinstance(exc, SolverError):
         print(f"depsim: solver failure: {exc}", file=sys.stderr)
         return EXIT_SOLVER
@@ -81,6 +88,29 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--plot", metavar="PNG", help="plot every output against time")
     _add_elements(run)
     run.set_defaults(command=_run)
+
+    sweep = commands.add_parser("sweep", help="run a parameter study (grid or Monte Carlo)")
+    sweep.add_argument("model", help="the .dep file")
+    sweep.add_argument("--target", choices=["numpy"], default="numpy")
+    sweep.add_argument("--grid", action="append", default=[], metavar="NAME=START:STOP:N",
+                       help="a grid axis; several axes give the full factorial; repeatable")
+    sweep.add_argument("--sample", action="append", default=[], metavar="NAME=DIST(...)",
+                       help="normal(MU,SIGMA), uniform(A,B), lognormal(MEDIAN,SIGMA_LN), "
+                            "triangular(A,MODE,B); repeatable")
+    sweep.add_argument("--runs", type=_positive_int, help="Monte Carlo runs")
+    sweep.add_argument("--seed", type=_natural_int, help="random seed (stored in the file)")
+    sweep.add_argument("--workers", type=_positive_int, help="local worker processes")
+    sweep.add_argument("--scheduler", metavar="URL", help="a Dask scheduler, tcp://HOST:PORT")
+    sweep.add_argument("--t-end", type=_positive_float, metavar="T", help="end time (s)")
+    sweep.add_argument("--dt-out", type=_positive_float, metavar="DT", help="output interval (s)")
+    sweep.add_argument("--tol", type=_positive_float, metavar="TOL", help="integration tolerance")
+    sweep.add_argument("--time-grid", type=_positive_int, metavar="N",
+                       help="also store every output at N times")
+    sweep.add_argument("-o", "--out", metavar="NC", help="NetCDF file (default MODEL-sweep.nc)")
+    sweep.add_argument("--plot", metavar="PNG", help="histograms and scatter plots")
+    sweep.add_argument("--resume", action="store_true", help="complete an interrupted study")
+    _add_elements(sweep)
+    sweep.set_defaults(command=_sweep)
     return parser
 
 
@@ -97,6 +127,18 @@ def _positive_float(text: str) -> float:
     if not value > 0 or value == float("inf"):
         raise argparse.ArgumentTypeError(f"'{text}' must be a positive number")
     return value
+
+
+def _positive_int(text: str) -> int:
+    if not text.strip().isdigit() or int(text) < 1:
+        raise argparse.ArgumentTypeError(f"'{text}' must be a positive integer")
+    return int(text)
+
+
+def _natural_int(text: str) -> int:
+    if not text.strip().isdigit():
+        raise argparse.ArgumentTypeError(f"'{text}' must be a non-negative integer")
+    return int(text)
 
 
 def _elements(text: str) -> dict[str, int]:
@@ -167,6 +209,23 @@ def _run(args) -> int:
         from depsim.runtime.plot import plot_outputs
         plot_outputs(result, args.plot)
     print(result.report())
+    return EXIT_OK
+
+
+def _sweep(args) -> int:
+    import depsim
+    from depsim.runtime.sweep import plot_study, summarize
+
+    sim = _load(args).compile(target=args.target)
+    out = args.out or f"{Path(args.model).stem}-sweep.nc"
+    study = depsim.sweep(sim, grid=args.grid, samples=args.sample, runs=args.runs,
+                         seed=args.seed, t_end=args.t_end, dt_out=args.dt_out, tol=args.tol,
+                         time_grid=args.time_grid, workers=args.workers,
+                         scheduler=args.scheduler, out=out, resume=args.resume)
+    print(summarize(study))
+    if args.plot:
+        plot_study(study, args.plot)
+    print(f"wrote {out}")
     return EXIT_OK
 
 

@@ -1,0 +1,259 @@
+"""Run a study: a design (run matrix) on a generated module, locally or on Dask, with an
+incremental checkpoint, and assemble the results into an xarray Dataset / NetCDF file."""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import os
+import sys
+import time
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from types import ModuleType
+
+import numpy as np
+
+from . import backends
+from .metrics import Metric, static_metric_names
+from .progress import ProgressBar, StudyProgress
+from .spec import Design, SweepSpecError, make_design
+from .storage import (Checkpoint, CheckpointError, build_dataset, fingerprint, open_study,
+                      partial_path, stored_seed, write_dataset)
+from .worker import ModuleRef, RunConfig, load_module
+
+__all__ = ["Study", "run_study", "sweep", "StudyError", "CheckpointError"]
+
+StudyError = backends.StudyError
+
+
+def _version() -> str:
+    try:
+        from importlib.metadata import version
+
+        return version("depsim")
+    except Exception:
+        return "unknown"
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Study:
+    """Everything that decides a study's numbers (not how or where it is executed).
+
+    module_path: the generated module file. design: the run matrix (`make_design`).
+    t_end, dt_out, tol: passed to every `simulate` call (None: the model's own).
+    metrics: extra metrics, name -> f(Result) -> float (module-level functions for the local
+      pool, or anything cloudpickle handles). builtin_metrics: event times, deployed, peaks,
+      final outputs, run statistics.
+    time_grid: None, a number of points from 0 to t_end, or explicit times (s): every output
+      sampled there, as variables `output.<name>` with dims (run, time).
+    simulate: replaces depsim.runtime.simulate (tests, other runtimes); same signature."""
+
+    module_path: Path
+    design: Design
+    t_end: float | None = None
+    dt_out: float | None = None
+    tol: float | None = None
+    metrics: Mapping[str, Metric] | None = None
+    builtin_metrics: bool = True
+    time_grid: np.ndarray | int | None = None
+    simulate: Callable | None = None
+
+
+def _time_grid(study: Study, module: ModuleType) -> np.ndarray | None:
+    grid = study.time_grid
+    if grid is None:
+        return None
+    if isinstance(grid, (int, np.integer)) and not isinstance(grid, bool):
+        if grid < 2:
+            raise SweepSpecError("time_grid: give at least 2 points")
+        t_end = study.t_end if study.t_end is not None else float(module.T_END)
+        return np.linspace(0.0, t_end, int(grid))
+    grid = np.asarray(grid, dtype=float).ravel()
+    if grid.size == 0 or not np.all(np.isfinite(grid)) or np.any(np.diff(grid) <= 0):
+        raise SweepSpecError("time_grid: times must be finite and increasing")
+    return grid
+
+
+def _check_metrics(metrics) -> dict:
+    metrics = dict(metrics or {})
+    for name, func in metrics.items():
+        if not isinstance(name, str) or not name or "/" in name:
+            raise SweepSpecError(f"metric name {name!r}: a non-empty text without '/'")
+        if not callable(func):
+            raise SweepSpecError(f"metric '{name}' is not callable "
+                                 "(a metric is f(Result) -> float)")
+    return metrics
+
+
+def run_study(study: Study, *, workers: int | None = None, scheduler=None,
+              store: str | os.PathLike | None = None, resume: bool = False,
+              batch_size: int | None = None, progress: bool | None = None,
+              on_batch: Callable[[StudyProgress], None] | None = None):
+    """Run every run of `study` and return the results as an xarray Dataset.
+
+    scheduler: None runs a local process pool of `workers` processes (default: every core);
+      "inline" runs in this process; "tcp://HOST:PORT" or a `distributed.Client` uses an
+      existing Dask cluster (batches of `batch_size` runs per task, default up to 50).
+    store: the NetCDF file to write. Finished runs go to `<store>.partial` after every batch;
+      resume=True keeps the finished runs of an interrupted study and runs only the rest (the
+      final file is the same as an uninterrupted study's, wall times apart). Without resume
+      an old `.partial` is discarded.
+    progress: a bar on stderr (None: only when stderr is a terminal).
+    on_batch: called after every batch is checkpointed, with a StudyProgress.
+    A failing run never stops the study: it is recorded with its error text and NaN metrics.
+    Ctrl-C keeps what finished in the checkpoint and re-raises KeyboardInterrupt."""
+    if resume and store is None:
+        raise SweepSpecError("resume needs the output file of the interrupted study "
+                             "(store=..., -o FILE)")
+    ref = ModuleRef.from_path(study.module_path)
+    module = load_module(ref)
+    design = study.design
+    names = tuple(module.PARAMETERS)
+    if tuple(design.parameter_names) != names:
+        raise ValueError("the design's parameter names are not the module's PARAMETERS")
+    if design.matrix.shape != (design.runs, len(names)):
+        raise ValueError(f"the run matrix has shape {design.matrix.shape}, "
+                         f"expected (runs, {len(names)})")
+    metrics = _check_metrics(study.metrics)
+    grid = _time_grid(study, module)
+    config = RunConfig(t_end=study.t_end, dt_out=study.dt_out, tol=study.tol, metrics=metrics,
+                       builtin=study.builtin_metrics, time_grid=grid, simulate=study.simulate)
+    static = static_metric_names(module, metrics, study.builtin_metrics)
+    settings = {"t_end": study.t_end, "dt_out": study.dt_out, "tol": study.tol,
+                "builtin_metrics": study.builtin_metrics}
+    fp = fingerprint(ref.sha256, names, design.matrix, settings, static, grid)
+    attrs = {
+        "title": f"depsim parameter study of {getattr(module, 'MODEL_NAME', '?')}",
+        "model": str(getattr(module, "MODEL_NAME", "")),
+        "source_file": str(getattr(module, "SOURCE_FILE", "")),
+        "source_sha256": str(getattr(module, "SOURCE_SHA256", "")),
+        "module_sha256": ref.sha256,
+        "depsim_version": _version(),
+        "generated_by_depsim": str(getattr(module, "DEPSIM_VERSION", "")),
+        "study_kind": design.kind,
+        "spec": design.spec,
+        "seed": design.seed,
+        "runs": design.runs,
+        "varied": ", ".join(design.varied),
+        "t_end": float(study.t_end if study.t_end is not None
+                       else getattr(module, "T_END", np.nan)),
+        "tol": float(study.tol if study.tol is not None else getattr(module, "TOL", np.nan)),
+        "dt_out": float(study.dt_out if study.dt_out is not None
+                        else getattr(module, "DT_OUT", np.nan)),
+        "fingerprint": fp,
+    }
+    checkpoint = None
+    records: dict[int, dict] = {}
+    if store is not None:
+        store = Path(store)
+        if resume and store.exists() and not partial_path(store).exists():
+            try:
+                existing = open_study(store)
+            except Exception:
+                existing = None
+            if existing is not None and existing.attrs.get("fingerprint") == fp:
+                return existing  # already complete
+        checkpoint = Checkpoint(partial_path(store), fp, design.runs, design.seed)
+        if resume:
+            records = checkpoint.load()
+        checkpoint.open(records)
+    todo = [i for i in range(design.runs) if i not in records]
+    failed = sum(1 for r in records.values() if r["failed"])
+    bar = ProgressBar(design.runs, len(records), failed, enabled=progress)
+    t0 = time.perf_counter()
+    try:
+        if todo:
+            # closing(): stop the workers at once when this loop ends by an exception
+            # (Ctrl-C, on_batch raising), not when the generator is garbage-collected.
+            batches = contextlib.closing(_execute(ref, config, design.matrix, todo, workers,
+                                                  scheduler, batch_size))
+            with batches as finished:
+                for batch_records in finished:
+                    fresh = [r for r in batch_records if r["run"] not in records]
+                    if checkpoint is not None:
+                        checkpoint.append(fresh)
+                    for r in fresh:
+                        records[r["run"]] = r
+                        failed += bool(r["failed"])
+                    bar.update(len(records), failed)
+                    if on_batch is not None:
+                        on_batch(StudyProgress(len(records), design.runs, failed,
+                                               time.perf_counter() - t0))
+    except BaseException as exc:
+        bar.close()
+        if checkpoint is not None:
+            checkpoint.close()
+            if isinstance(exc, (KeyboardInterrupt, StudyError)):
+                print(f"depsim: {len(records)} of {design.runs} runs kept in "
+                      f"{checkpoint.path}; run again with resume (--resume) to finish",
+                      file=sys.stderr)
+        raise
+    bar.close()
+    ds = build_dataset(records, design, static_metrics=static, user_metrics=list(metrics),
+                       output_names=tuple(getattr(module, "OUTPUTS", ())), time_grid=grid,
+                       attrs=attrs)
+    if store is not None:
+        write_dataset(ds, store)
+        checkpoint.remove()
+    return ds
+
+
+def _execute(ref, config, matrix, todo, workers, scheduler, batch_size):
+    if scheduler is None or scheduler in ("local", "processes", "pool"):
+        workers = workers or backends.default_workers()
+        # small batches: a pool task costs about a millisecond, and a batch is the unit that
+        # an interruption can lose
+        size = batch_size or backends.batch_size_for(len(todo), workers, 8, 5)
+        yield from backends.run_pool(ref, config, matrix, backends.split_batches(todo, size),
+                                     workers)
+    elif scheduler in ("inline", "serial", "synchronous"):
+        size = batch_size or backends.batch_size_for(len(todo), 1, 20, 20)
+        yield from backends.run_inline(ref, config, matrix, backends.split_batches(todo, size))
+    else:
+        if isinstance(scheduler, str) and "://" not in scheduler:
+            raise SweepSpecError(f"scheduler '{scheduler}': use 'tcp://HOST:PORT', a "
+                             "distributed.Client, 'inline' or None (local processes)")
+        slots = workers
+        if slots is None:
+            slots = _dask_slots(scheduler)
+        size = batch_size or backends.batch_size_for(len(todo), slots, 4, 50)
+        yield from backends.run_dask(ref, config, matrix, backends.split_batches(todo, size),
+                                     scheduler)
+
+
+def _dask_slots(scheduler) -> int:
+    try:
+        from distributed import Client
+
+        if isinstance(scheduler, Client):
+            return max(1, sum(scheduler.nthreads().values()))
+    except Exception:
+        pass
+    return 8
+
+
+def sweep(module: ModuleType | str | os.PathLike, *, grid=None, samples=None,
+          runs: int | None = None, seed: int | None = None,
+          metrics: Mapping[str, Metric] | None = None, t_end: float | None = None,
+          dt_out: float | None = None, tol: float | None = None, time_grid=None,
+          workers: int | None = None, scheduler=None, out: str | os.PathLike | None = None,
+          resume: bool = False, progress: bool | None = None, batch_size: int | None = None,
+          quantity: Callable[[str, str], float] | None = None,
+          defaults: np.ndarray | None = None, simulate: Callable | None = None,
+          on_batch: Callable[[StudyProgress], None] | None = None):
+    """One call: build the design from grid/sample items and run it (see `make_design` and
+    `run_study`). `module` is a generated module (with __file__) or its path; `defaults`
+    replaces the module's PARAMETER_DEFAULTS as the base vector; `quantity(name, text)`
+    converts values with units. Returns the xarray Dataset (also written to `out`)."""
+    path = Path(module.__file__) if isinstance(module, ModuleType) else Path(module)
+    loaded = module if isinstance(module, ModuleType) else load_module(path)
+    base = np.array(loaded.PARAMETER_DEFAULTS if defaults is None else defaults, dtype=float)
+    if resume and seed is None and samples and out is not None:
+        seed = stored_seed(out)  # the study being resumed drew its seed at random
+    design = make_design(tuple(loaded.PARAMETERS), base, grid=grid, samples=samples, runs=runs,
+                         seed=seed, quantity=quantity)
+    study = Study(path, design, t_end=t_end, dt_out=dt_out, tol=tol, metrics=metrics,
+                  time_grid=time_grid, simulate=simulate)
+    return run_study(study, workers=workers, scheduler=scheduler, store=out, resume=resume,
+                     batch_size=batch_size, progress=progress, on_batch=on_batch)
