@@ -45,23 +45,3 @@ def compiled_cases(tmp_path_factory):
 def compiled(request, compiled_cases) -> Compiled:
     """Every model case in turn."""
     return compiled_cases(request.param)
-
-
-@dataclass(frozen=True)
-class State:
-    q: np.ndarray
-    qd: np.ndarray
-    t: float
-    p: np.ndarray
-
-
-def random_states(module: ModuleType, count: int = 3, seed: int = 7) -> list[State]:
-    """Random states near the assembled initial pose, with perturbed positive parameters."""
-    rng = np.random.default_rng(seed)
-    states = []
-    for _ in range(count):
-        p = np.array(module.PARAMETER_DEFAULTS) * rng.uniform(0.9, 1.1, module.NP)
-        q0, _ = module.initial_state(p)
-        q = q0 + 0.05 * rng.standard_normal(module.NQ)
-        states.append(State(q, rng.standard_normal(module.NQ), float(rng.uniform(0, 2)), p))
-    return states

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from conftest import random_states
+from fd_states import random_states
 
 H = 1e-6  # first differences
 H2 = 1e-4  # second differences

@@ -2,7 +2,7 @@
 
 import pytest
 
-from conftest import EXAMPLES
+from e2e import EXAMPLES
 
 
 @pytest.mark.parametrize("example", sorted(p.name for p in EXAMPLES.glob("*.dep")))
