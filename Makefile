@@ -19,6 +19,8 @@ install: $(STAMP)
 demo: $(STAMP)
 	mkdir -p results
 	$(BIN)/depsim check examples/intelsat5.dep
+	$(BIN)/depsim run examples/intelsat5.dep -o results/intelsat5.csv \
+		--summary results/intelsat5.json --plot results/intelsat5.png
 
 # pytest exits 5 when it collects nothing: an empty suite is a failure, not a pass.
 test: $(STAMP)
