@@ -46,8 +46,9 @@ class LinearConstraint:
 @dataclass(frozen=True)
 class HingeLock:
     """Hinge `hinge` held at `angle` (rad): Phi = theta_k(q) - angle, Jacobian from the module's
-    `hinge_jacobian`. gamma = -(d/dt Jacobian) qd is exact (zero) when theta is linear in q,
-    as for rigid bodies in absolute coordinates; otherwise a central difference along qd."""
+    `hinge_jacobian`, gamma = -(J qd)_q qd from its `hinge_gamma` (zero for rigid bodies in
+    absolute coordinates); a module without `hinge_gamma` gets a central difference of the
+    Jacobian along qd."""
 
     module: object
     hinge: str
@@ -74,6 +75,8 @@ class HingeLock:
         return 0.0
 
     def gamma(self, q, qd, t, p):
+        if hasattr(self.module, "hinge_gamma"):
+            return float(self.module.hinge_gamma(q, qd, p)[self._index])
         speed = float(np.max(np.abs(qd)))
         if speed == 0.0:
             return 0.0

@@ -10,8 +10,9 @@ from .results import atomic_path
 def plot_outputs(result, path) -> None:
     """Write a PNG with one panel per output vs time (s), titled with the model name.
 
-    Outputs in "rad" are drawn in degrees, "rad/s" in deg/s; events are marked by vertical
-    lines. Renders with matplotlib's Agg canvas (no display, no pyplot state); the file is written
+    Outputs in "rad" are drawn in degrees, "rad/s" in deg/s; latch events ("<h>.latch") are
+    marked by red vertical lines labelled with the hinge, other events by grey ones. Renders
+    with matplotlib's Agg canvas (no display, no pyplot state); the file is written
     atomically.
     """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -28,7 +29,14 @@ def plot_outputs(result, path) -> None:
         ax.set_ylabel(f"{name} [{unit}]" if unit else name)
         ax.grid(True, alpha=0.3)
         for event in result.events:
-            ax.axvline(event.t, color="0.5", lw=0.8, ls="--")
+            latch = event.name.endswith(".latch")
+            ax.axvline(event.t, color="tab:red" if latch else "0.6", lw=0.9 if latch else 0.6,
+                       ls="--")
+    for event in result.events:
+        if event.name.endswith(".latch"):
+            axes[0].annotate(event.name[:-len(".latch")], (event.t, 1.0),
+                             xycoords=("data", "axes fraction"), xytext=(2, -10),
+                             textcoords="offset points", color="tab:red", fontsize=8)
     axes[-1].set_xlabel("t [s]")
     figure.suptitle(result.model)
     with atomic_path(path) as tmp:

@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 
+from .loads import lock_torques
 from .results import EventRecord, Result, Stats
 
 
@@ -21,7 +22,11 @@ def output_times(t_end: float, dt_out: float) -> np.ndarray:
 
 
 class Recorder:
-    """Collects one row per output time from states (t, q, qd, lam, work) of a system."""
+    """Collects one row per output time from states (t, q, qd, lam, work) of a system.
+
+    Energies and dissipators are the system's (`energy_names`, `energy`, `dissipator_names`
+    when it has them, e.g. a MechanismSystem), else the module's. `hinge_torques(q, qd, names,
+    lam) -> (NH,)` gives each hinge's lock torque (default: -lambda of its lock row)."""
 
     def __init__(self, system, settings, method: str):
         self.system = system
@@ -31,6 +36,20 @@ class Recorder:
         self.next_index = 0
         self.rows: list[tuple] = []
         self.row_names: list[str] = []
+        module = system.module
+        self.energy_names = tuple(getattr(system, "energy_names", module.ENERGIES))
+        self.dissipator_names = tuple(getattr(system, "dissipator_names", module.DISSIPATORS))
+        self.hinge_torques = None
+
+    def _energy(self, q, qd, t) -> np.ndarray:
+        if hasattr(self.system, "energy"):
+            return np.asarray(self.system.energy(q, qd, t), dtype=float)
+        return np.asarray(self.system.module.energy(q, qd, t, self.system.p), dtype=float)
+
+    def _torques(self, q, qd, names, lam) -> np.ndarray:
+        if self.hinge_torques is not None:
+            return np.asarray(self.hinge_torques(q, qd, names, lam), dtype=float)
+        return lock_torques(self.system.module.HINGES, names, lam)
 
     def pending(self, t_until: float) -> list[float]:
         """Output times not yet recorded that are <= t_until (s); marks them recorded."""
@@ -56,14 +75,15 @@ class Recorder:
                           np.asarray(module.hinge_angles(q, p), dtype=float),
                           np.asarray(module.hinge_rates(q, qd, p), dtype=float),
                           np.asarray(module.outputs(q, qd, t, p), dtype=float),
-                          residuals, np.asarray(module.energy(q, qd, t, p), dtype=float),
-                          np.array(work, dtype=float)))
+                          residuals, self._energy(q, qd, t), np.array(work, dtype=float),
+                          self._torques(q, qd, constraints.names, lam)))
 
     def result(self, stats: Stats, events: list[EventRecord],
-               constraint_tol: float | None = None) -> Result:
-        """The assembled Result."""
+               constraint_tol: float | None = None, latch_hinges=(), peaks=None) -> Result:
+        """The assembled Result; `latch_hinges` the hinges with a latch, `peaks` the hinge
+        load maxima found at the step points ({hinge: PeakLoad})."""
         module, nq = self.system.module, self.system.nq
-        columns = list(zip(*self.rows)) if self.rows else [[]] * 10
+        columns = list(zip(*self.rows)) if self.rows else [[]] * 11
         lam = np.array([[row.get(n, np.nan) for n in self.row_names] for row in columns[3]])
         residuals = np.array(columns[7]).reshape(-1, 3)
 
@@ -85,7 +105,9 @@ class Recorder:
             outputs=stack(columns[6], len(module.OUTPUTS)),
             residual_pos=residuals[:, 0], residual_vel=residuals[:, 1],
             residual_acc=residuals[:, 2],
-            energy_names=tuple(module.ENERGIES), energy=stack(columns[8], len(module.ENERGIES)),
-            dissipator_names=tuple(module.DISSIPATORS),
-            dissipated=stack(columns[9], len(module.DISSIPATORS)),
-            stats=stats, events=tuple(events))
+            energy_names=self.energy_names, energy=stack(columns[8], len(self.energy_names)),
+            dissipator_names=self.dissipator_names,
+            dissipated=stack(columns[9], len(self.dissipator_names)),
+            stats=stats, events=tuple(events),
+            hinge_torque=stack(columns[10], len(module.HINGES)),
+            latch_hinges=tuple(latch_hinges), step_peaks=peaks)

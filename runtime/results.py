@@ -18,6 +18,9 @@ from pathlib import Path
 
 import numpy as np
 
+from .loads import (Deployment, HingeLoad, PeakLoad, PeakTracker, deployment_of, hinge_forces,
+                    merge_peaks)
+
 
 @dataclass(frozen=True, slots=True)
 class PassStats:
@@ -97,6 +100,40 @@ class Result:
     dissipated: np.ndarray  # (n, ND) J, work removed since t = 0
     stats: Stats
     events: tuple[EventRecord, ...]
+    hinge_torque: np.ndarray | None = None  # (n, NH) N m lock torque on member b, NaN if free
+    latch_hinges: tuple[str, ...] = ()  # hinges with a latch (docs/deployment.md)
+    step_peaks: dict | None = None  # {hinge: PeakLoad} found at the accepted step points
+
+    @property
+    def hinge_loads(self) -> dict[str, HingeLoad]:
+        """Each hinge's loads at the output times: force on member b from member a (world
+        frame, N; from the multipliers of rows "<h>.x", "<h>.y"), its magnitude, and the lock
+        torque (N m, NaN while nothing locks the hinge). docs/deployment.md, section 5."""
+        forces = hinge_forces(self.hinge_names, self.constraint_names, self.lam)
+        torque = (self.hinge_torque if self.hinge_torque is not None
+                  else np.full((len(self.times), len(self.hinge_names)), np.nan))
+        return {h: HingeLoad(forces[:, k, 0], forces[:, k, 1],
+                             np.hypot(forces[:, k, 0], forces[:, k, 1]), torque[:, k])
+                for k, h in enumerate(self.hinge_names)}
+
+    @property
+    def peak_loads(self) -> dict[str, PeakLoad]:
+        """Largest hinge force and lock torque magnitudes over the run (output times and, for
+        the iterative method, every accepted step point), with their times."""
+        tracker = PeakTracker(self.hinge_names)
+        forces = hinge_forces(self.hinge_names, self.constraint_names, self.lam)
+        torque = (self.hinge_torque if self.hinge_torque is not None
+                  else np.full((len(self.times), len(self.hinge_names)), np.nan))
+        for i, t in enumerate(self.times):
+            tracker.observe(float(t), forces[i], torque[i])
+        peaks = tracker.peaks()
+        return merge_peaks(peaks, self.step_peaks) if self.step_peaks else peaks
+
+    @property
+    def deployment(self) -> Deployment:
+        """Latch times, rates and impulses, deployed or not, time to full deployment, friction
+        and impact energy (loads.Deployment)."""
+        return deployment_of(self)
 
     def output(self, name: str) -> np.ndarray:
         """The column of output `name` (n,)."""
@@ -105,9 +142,15 @@ class Result:
         return self.outputs[:, self.output_names.index(name)]
 
     def total_energy(self) -> np.ndarray:
-        """Kinetic + potential energy + energy dissipated so far (n,), J: constant when the
-        model's forces are all accounted for."""
-        return self.energy.sum(axis=1) + self.dissipated.sum(axis=1)
+        """Kinetic + potential energy + energy dissipated so far (n,), J, including the kinetic
+        energy plastic impacts removed at events before each output time (their
+        `impact_energy_loss`): constant when the model's forces are all accounted for."""
+        impacts = np.zeros(len(self.times))
+        for e in self.events:
+            loss = e.data.get("impact_energy_loss")
+            if loss:
+                impacts[self.times > e.t] += loss
+        return self.energy.sum(axis=1) + self.dissipated.sum(axis=1) + impacts
 
     def to_csv(self, path) -> None:
         """`t` then one column per output (SI), header names exactly the output names, %.17g."""
@@ -126,6 +169,9 @@ class Result:
                            "t_end": self.t_end, "dt_out": self.dt_out},
             "statistics": dataclasses.asdict(self.stats),
             "events": [{"name": e.name, "t": e.t, **e.data} for e in self.events],
+            "deployment": _deployment_summary(self.deployment),
+            "peak_hinge_loads": {h: _finite(dataclasses.asdict(p))
+                                 for h, p in self.peak_loads.items()},
         }
 
     def to_json(self, path) -> None:
@@ -133,11 +179,17 @@ class Result:
         _write_atomic(path, json.dumps(self.summary(), indent=2) + "\n")
 
     def report(self) -> str:
-        """A few human-readable lines on the run."""
+        """Human-readable lines: deployment first (deployed or not, latches with time, rate and
+        impulse, time to full deployment, peak hinge loads, friction energy), then the solver."""
+        lines = [f"{self.model}: {len(self.times)} output times to t = {self.times[-1]:.6g} s "
+                 f"({self.method}, tol = {self.tol:.1e})"]
+        lines += _deployment_lines(self.deployment, self.peak_loads, self.t_end)
+        lines += self._solver_lines()
+        return "\n".join(lines)
+
+    def _solver_lines(self) -> list[str]:
         s = self.stats
         lines = [
-            f"{self.model}: {len(self.times)} output times to t = {self.times[-1]:.6g} s "
-            f"({self.method}, tol = {self.tol:.1e})",
             f"  steps: {s.accepted_steps} accepted, {s.rejected_steps} rejected, "
             f"{s.failed_steps} retried; {s.rhs_evaluations} force evaluations",
             f"  iterations per step: position {s.position.mean:.2f} (max {s.position.max}), "
@@ -146,8 +198,57 @@ class Result:
             f"  largest constraint residuals at steps: position {s.max_v_pos:.1e}, "
             f"velocity {s.max_v_vel:.1e}, acceleration {s.max_v_acc:.1e}",
         ]
-        lines += [f"  event {e.name} at t = {e.t:.9g} s" for e in self.events]
-        return "\n".join(lines)
+        others = [e for e in self.events if e.name not in {f"{h}.latch" for h in self.latch_hinges}]
+        shown = others[:EVENTS_SHOWN]
+        lines += [f"  event {e.name} at t = {e.t:.9g} s" for e in shown]
+        if len(others) > len(shown):
+            lines.append(f"  ... and {len(others) - len(shown)} more events (see the JSON summary)")
+        return lines
+
+
+EVENTS_SHOWN = 20
+
+
+def _deployment_lines(deployment: Deployment, peaks: dict, t_end: float) -> list[str]:
+    lines = []
+    if deployment.deployed is not None:
+        if deployment.deployed:
+            lines.append(f"  DEPLOYED: all {len(deployment.latch_hinges)} latches latched; "
+                         f"full deployment at t = {deployment.time:.6g} s")
+        else:
+            missing = sorted(set(deployment.latch_hinges) - {r.hinge for r in deployment.latches})
+            lines.append(f"  NOT DEPLOYED by t = {t_end:.6g} s: {len(missing)} of "
+                         f"{len(deployment.latch_hinges)} latches open ({', '.join(missing)})")
+        for r in deployment.latches:
+            impulse = ("compliant" if r.impulse is None else
+                       f"impulse {r.impulse:.4g} N*m*s, {r.energy_loss:.4g} J lost")
+            lines.append(f"    latch {r.hinge}: t = {r.t:.9g} s, rate {r.rate:.4g} rad/s "
+                         f"({np.degrees(r.rate):.4g} deg/s), {impulse}")
+    loaded = {h: p for h, p in peaks.items() if p.force > 0 or p.torque > 0}
+    if loaded:
+        lines.append("  peak hinge loads (force on member b from a; lock torque):")
+        for h, p in loaded.items():
+            torque = (f", torque {p.torque:.4g} N*m at t = {p.t_torque:.6g} s"
+                      if p.torque > 0 else "")
+            lines.append(f"    {h}: {p.force:.4g} N at t = {p.t_force:.6g} s{torque}")
+    if deployment.friction_energy or deployment.impact_energy:
+        lines.append(f"  energy dissipated: friction {deployment.friction_energy:.6g} J, "
+                     f"latch/stop impacts {deployment.impact_energy:.6g} J")
+    return lines
+
+
+def _deployment_summary(deployment: Deployment) -> dict:
+    return {"deployed": deployment.deployed, "time_to_deploy": deployment.time,
+            "latch_hinges": list(deployment.latch_hinges),
+            "latches": [_finite(dataclasses.asdict(r)) for r in deployment.latches],
+            "friction_energy": deployment.friction_energy,
+            "impact_energy": deployment.impact_energy}
+
+
+def _finite(values: dict) -> dict:
+    """NaN -> None, so the JSON stays standard."""
+    return {k: (None if isinstance(v, float) and not np.isfinite(v) else v)
+            for k, v in values.items()}
 
 
 def _write_atomic(path, text: str) -> None:

@@ -1,0 +1,226 @@
+"""`animate`: the mechanism moving, as a GIF (matplotlib animation, PillowWriter).
+
+Members are drawn as lines, beams as node polylines, hinges as dots: a black circle while
+free, a red square once its latch has engaged, an orange diamond while a stop or stick-slip
+lock holds it. The geometry comes from the generated module:
+
+* preferred (docs/deployment.md, section 7, asked of codegen): `POINTS` (names), `points(q, p)`
+  -> (NPT, 2) world positions (m), `MEMBER_POINTS` (one tuple of point indices per member,
+  drawn as a polyline) and `HINGE_POINTS` (the index of each hinge's point);
+* otherwise it is reconstructed from what every module has: rigid members from their
+  (x, y, phi) coordinates (a bar of parameter `<m>.length` as its two ends, another body as
+  the polyline through its hinges), beams from their node coordinates, and each hinge's
+  position from its rows "<h>.x", "<h>.y" of Phi_q (for a rigid member with centre r_m,
+  d Phi_x / d phi_m = -s (y_P - y_m) and d Phi_y / d phi_m = s (x_P - x_m), s = +1 for
+  member a, -1 for member b).
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+MAX_FRAMES = 200
+DPI = 80
+
+
+def animate(result, module, path, fps: float = 20.0, max_frames: int = MAX_FRAMES,
+            params=None) -> int:
+    """Write a GIF of `result` (a Result of `module`) to `path`; returns the frame count.
+
+    Frames are the output times, thinned evenly to at most `max_frames` (the last always
+    included); `fps` frames per second of GIF. params: the module parameters (default: the
+    run's). The file is written beside `path` and renamed, so a failure leaves no partial GIF.
+    """
+    from matplotlib.animation import PillowWriter
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    p = np.asarray(result.parameters if params is None else params, dtype=float)
+    geometry = Geometry(module, p)
+    frames = _frame_indices(len(result.times), max_frames)
+    shapes = [geometry.shapes(result.q[i]) for i in frames]
+    states = [_hinge_states(result, i) for i in frames]
+
+    figure = Figure(figsize=(6, 6), dpi=DPI)
+    figure.subplots_adjust(left=0.13, right=0.97, bottom=0.09, top=0.94)
+    FigureCanvasAgg(figure)
+    ax = figure.add_subplot()
+    _set_limits(ax, shapes)
+    ax.set_aspect("equal")
+    ax.grid(True, alpha=0.3)
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    lines = [ax.plot([], [], "-", lw=2.5, color=f"C{i % 10}", solid_capstyle="round")[0]
+             for i, _ in enumerate(geometry.member_names)]
+    styles = {"free": ("o", "black"), "latched": ("s", "tab:red"), "held": ("D", "tab:orange")}
+    markers = {s: ax.plot([], [], ls="none", marker=m, color=c, ms=7, label=s)[0]
+               for s, (m, c) in styles.items()}
+    ax.legend(loc="upper right", fontsize=8)
+    title = ax.set_title("")
+
+    def draw(k):
+        members, hinges = shapes[k]
+        for line, polyline in zip(lines, members):
+            line.set_data(polyline[:, 0], polyline[:, 1])
+        for state, marker in markers.items():
+            chosen = [j for j, s in enumerate(states[k]) if s == state]
+            marker.set_data(hinges[chosen, 0], hinges[chosen, 1])
+        title.set_text(f"{result.model}   t = {result.times[frames[k]]:.2f} s")
+        return [*lines, *markers.values(), title]
+
+    path = Path(path)
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix or '.gif'}")
+    writer = PillowWriter(fps=fps)
+    try:
+        with writer.saving(figure, tmp, dpi=DPI):
+            for k in range(len(frames)):  # one draw per frame (FuncAnimation draws twice)
+                draw(k)
+                writer.grab_frame()
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    return len(frames)
+
+
+def _frame_indices(n: int, max_frames: int) -> list[int]:
+    if n <= max_frames:
+        return list(range(n))
+    return sorted(set(np.linspace(0, n - 1, max_frames).round().astype(int).tolist()))
+
+
+def _hinge_states(result, i: int) -> list[str]:
+    """'latched' after the hinge's latch event, 'held' while another lock holds it, else
+    'free'."""
+    t = result.times[i]
+    latched = {e.name[:-len(".latch")] for e in result.events
+               if e.name.endswith(".latch") and e.t < t}
+    torque = result.hinge_torque
+    out = []
+    for k, h in enumerate(result.hinge_names):
+        if h in latched:
+            out.append("latched")
+        elif torque is not None and np.isfinite(torque[i, k]):
+            out.append("held")
+        else:
+            out.append("free")
+    return out
+
+
+def _set_limits(ax, shapes) -> None:
+    every = np.concatenate([np.concatenate(members + [hinges]) for members, hinges in shapes])
+    lo, hi = every.min(axis=0), every.max(axis=0)
+    centre, half = (lo + hi) / 2, max(float(np.max(hi - lo)) / 2, 1e-3) * 1.1
+    ax.set_xlim(centre[0] - half, centre[0] + half)
+    ax.set_ylim(centre[1] - half, centre[1] + half)
+
+
+class Geometry:
+    """Member polylines and hinge positions (m) of a module at any q (module docstring)."""
+
+    def __init__(self, module, p):
+        self.module = module
+        self.p = p
+        self.preferred = all(hasattr(module, n) for n in ("points", "MEMBER_POINTS",
+                                                          "HINGE_POINTS"))
+        if self.preferred:
+            names = getattr(module, "MEMBERS", None)
+            self.member_names = tuple(names or (f"member{i}" for i in
+                                                range(len(module.MEMBER_POINTS))))
+        else:
+            self._reconstruct()
+
+    def shapes(self, q) -> tuple[list[np.ndarray], np.ndarray]:
+        """(one (k, 2) polyline per member, hinge positions (NH, 2))."""
+        if self.preferred:
+            pts = np.asarray(self.module.points(q, self.p), dtype=float)
+            members = [pts[list(ids)] for ids in self.module.MEMBER_POINTS]
+            return members, pts[list(self.module.HINGE_POINTS)]
+        hinges = self._hinge_positions(q)
+        return [draw(q, hinges) for draw in self._drawers], hinges
+
+    # -- reconstruction from the coordinates and Phi_q ----------------------------------------
+    def _reconstruct(self) -> None:
+        module = self.module
+        coords = {name: i for i, name in enumerate(module.COORDINATES)}
+        params = {name: i for i, name in enumerate(module.PARAMETERS)}
+        rigid, beams = [], {}
+        for name in module.COORDINATES:
+            member, _, field = name.rpartition(".")
+            if field == "phi" and f"{member}.x" in coords:
+                rigid.append(member)
+            elif field == "x" and ".n" in member and f"{member}.dx" in coords:
+                beam, _, node = member.rpartition(".")
+                beams.setdefault(beam, []).append((int(node[1:]), coords[name]))
+        self.coords = coords
+        self.rigid = rigid
+        self.member_names = tuple(rigid) + tuple(beams)
+        self._rows = self._hinge_rows()
+        self._drawers = [self._rigid_drawer(m, params) for m in rigid]
+        self._drawers += [self._beam_drawer(sorted(nodes)) for nodes in beams.values()]
+
+    def _hinge_rows(self):
+        names = tuple(self.module.CONSTRAINTS)
+        rows = []
+        for h in self.module.HINGES:
+            rows.append((names.index(f"{h}.x"), names.index(f"{h}.y"))
+                        if f"{h}.x" in names and f"{h}.y" in names else None)
+        return rows
+
+    def _hinge_positions(self, q) -> np.ndarray:
+        J = np.zeros((self.module.NC, self.module.NQ))
+        J[self.module.PHI_Q_ROWS, self.module.PHI_Q_COLS] = self.module.phi_q(q, 0.0, self.p)
+        out = np.full((len(self.module.HINGES), 2), np.nan)
+        for k, rows in enumerate(self._rows):
+            if rows is not None:
+                out[k] = self._joint_point(J, q, *rows)
+        return out
+
+    def _joint_point(self, J, q, rx, ry) -> np.ndarray:
+        """The hinge point from its two rows (module docstring); NaN if no member found."""
+        for col in np.flatnonzero(J[rx]):
+            name = self.module.COORDINATES[col]
+            member, _, field = name.rpartition(".")
+            if field != "x":
+                continue
+            s = 1.0 if J[rx, col] > 0 else -1.0
+            if member in self.rigid:
+                phi = self.coords[f"{member}.phi"]
+                x, y = q[col], q[self.coords[f"{member}.y"]]
+                return np.array([x + s * J[ry, phi], y - s * J[rx, phi]])
+            if f"{member}.dx" in self.coords:  # a beam node
+                return np.array([q[col], q[self.coords[f"{member}.y"]]])
+        return np.full(2, np.nan)
+
+    def _rigid_drawer(self, member: str, params):
+        ix, iy, iphi = (self.coords[f"{member}.{c}"] for c in ("x", "y", "phi"))
+        length = params.get(f"{member}.length")
+        own = [k for k, h in enumerate(self.module.HINGES)
+               if self._rows[k] is not None and self._touches(member, k)]
+
+        def draw(q, hinges):
+            centre = np.array([q[ix], q[iy]])
+            if length is not None:
+                half = 0.5 * self.p[length] * np.array([np.cos(q[iphi]), np.sin(q[iphi])])
+                return np.stack((centre - half, centre + half))
+            points = [hinges[k] for k in own if np.all(np.isfinite(hinges[k]))]
+            if len(points) < 2:
+                return np.stack([centre] + points) if points else np.stack((centre, centre))
+            axis = np.array([np.cos(q[iphi]), np.sin(q[iphi])])
+            return np.stack(sorted(points, key=lambda r: float((r - centre) @ axis)))
+
+        return draw
+
+    def _touches(self, member: str, k: int) -> bool:
+        rows = {i for i, j in zip(self.module.PHI_Q_ROWS, self.module.PHI_Q_COLS)
+                if self.module.COORDINATES[j] == f"{member}.x"}
+        return self._rows[k][0] in rows
+
+    def _beam_drawer(self, nodes):
+        def draw(q, hinges):
+            return np.array([[q[i], q[i + 1]] for _, i in nodes])
+
+        return draw
