@@ -86,6 +86,7 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("-o", "--out", metavar="CSV", help="write outputs to a CSV file")
     run.add_argument("--summary", metavar="JSON", help="write a JSON run summary")
     run.add_argument("--plot", metavar="PNG", help="plot every output against time")
+    run.add_argument("--animate", metavar="GIF", help="animate the mechanism moving")
     _add_elements(run)
     run.set_defaults(command=_run)
 
@@ -208,6 +209,9 @@ def _run(args) -> int:
     if args.plot:
         from depsim.runtime.plot import plot_outputs
         plot_outputs(result, args.plot)
+    if args.animate:
+        from depsim.runtime import animate
+        animate(result, sim.module, args.animate)
     print(result.report())
     return EXIT_OK
 

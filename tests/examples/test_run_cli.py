@@ -53,3 +53,11 @@ def test_solver_failure_exits_3_names_the_joint_and_writes_nothing(cli, tmp_path
     assert "crank_pin" in done.stderr and "hint:" in done.stderr
     assert "Traceback" not in done.stderr
     assert list(tmp_path.iterdir()) == []
+
+
+def test_animate_writes_a_gif(cli, tmp_path):
+    gif = tmp_path / "slider.gif"
+    done = cli("run", EXAMPLES / "slider_crank.dep", "--t-end", "0.2", "--dt-out", "0.02",
+               "--animate", gif)
+    assert done.returncode == 0, done.stderr
+    assert gif.read_bytes()[:6] in (b"GIF89a", b"GIF87a")
