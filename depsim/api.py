@@ -24,6 +24,20 @@ from depsim.dsl import ir, load_model, parse_quantity
 from depsim.errors import UsageError
 
 
+TARGETS = ("numpy", "c")
+
+
+def default_target() -> str:
+    """"c" when a C compiler is on this machine, else "numpy"."""
+    from depsim.runtime.ctarget import CBuildError, compiler
+
+    try:
+        compiler()
+    except CBuildError:
+        return "numpy"
+    return "c"
+
+
 def load(path: str | os.PathLike) -> Model:
     """Parse and check a `.dep` file. Raises `depsim.dsl.ModelError` on a bad model."""
     return Model(load_model(path), Path(path))
@@ -54,15 +68,21 @@ class Model:
         return Model(dataclasses.replace(self.ir, beams=new_beams), self.path)
 
     def compile(self, target: str = "numpy", out_dir: str | os.PathLike | None = None) -> Simulator:
-        """Generate code for `target` ("numpy") and load it. Artifacts are cached under
-        `out_dir` or the user cache, keyed by the model hash, element counts and depsim version."""
-        if target != "numpy":
-            raise UsageError(f"unknown target '{target}' (available: numpy)")
+        """Generate code for `target` and load it: "numpy" (a Python module) or "c" (a C
+        folder built into a shared library, loaded with ctypes). Artifacts are cached under
+        `out_dir` or the user cache, keyed by the model hash, element counts and depsim
+        version (the C build also by compiler and flags)."""
+        if target not in TARGETS:
+            raise UsageError(f"unknown target '{target}' (available: {', '.join(TARGETS)})")
+        directory = Path(out_dir) if out_dir is not None else _cache_dir(self.ir, target)
+        if target == "c":
+            from depsim.codegen import compile_c
+            from depsim.runtime.ctarget import load_folder
+
+            return Simulator(self, load_folder(compile_c(self.ir, directory)), target)
         from depsim.codegen import compile_numpy, load_generated
 
-        directory = Path(out_dir) if out_dir is not None else _cache_dir(self.ir, target)
-        path = compile_numpy(self.ir, directory)
-        return Simulator(self, load_generated(path), target)
+        return Simulator(self, load_generated(compile_numpy(self.ir, directory)), target)
 
 
 def _cache_dir(model: ir.Model, target: str) -> Path:
@@ -98,10 +118,17 @@ class Simulator:
     def run(self, set: Mapping[str, float | str] | None = None, t_end: float | None = None,
             dt_out: float | None = None, tol: float | None = None, progress: bool = False):
         """Simulate with parameters `set` applied; returns a `depsim.runtime.Result`."""
-        from depsim.runtime import simulate
+        return self.simulate_function()(self.module, self.parameters(set), t_end=t_end,
+                                        dt_out=dt_out, tol=tol, progress=progress)
 
-        return simulate(self.module, self.parameters(set), t_end=t_end, dt_out=dt_out,
-                        tol=tol, progress=progress)
+    def simulate_function(self):
+        """The runtime entry point for this target: `depsim.runtime.simulate` (NumPy) or
+        `depsim.runtime.clib.simulate` (C); both return the same `Result`."""
+        if self.target == "c":
+            from depsim.runtime.clib import simulate
+        else:
+            from depsim.runtime import simulate
+        return simulate
 
 
 def _unknown_parameter(name: str, by_name, derived) -> str:
@@ -146,8 +173,9 @@ def sweep(sim: Simulator, *, grid=None, samples=None, runs=None, seed=None, metr
     def quantity(name: str, text: str) -> float:
         return float(sim.parameters({name: text})[index[name]])
 
-    return studies.sweep(sim.module, grid=grid, samples=samples, runs=runs, seed=seed,
+    module = sim.module if sim.target == "numpy" else sim.module.__file__  # workers load it
+    return studies.sweep(module, grid=grid, samples=samples, runs=runs, seed=seed,
                          metrics=metrics, t_end=t_end, dt_out=dt_out, tol=tol,
                          time_grid=time_grid, workers=workers, scheduler=scheduler, out=out,
                          resume=resume, progress=progress, quantity=quantity,
-                         defaults=sim.defaults)
+                         defaults=sim.defaults, simulate=sim.simulate_function())

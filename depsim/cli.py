@@ -7,6 +7,7 @@ to stdout; no traceback reaches the user for anything they caused.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
@@ -21,6 +22,9 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("depsim: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # stdout closed early (`depsim run ... | head`): not an error
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_OK
     except Exception as exc:  # map every user-caused failure to its exit code
         code = _report(exc)
         if code is None:
@@ -34,6 +38,7 @@ def _report(exc: Exception) -> int | None:
     from depsim.dsl import ModelError, format_diagnostics
     from depsim.errors import UsageError
     from depsim.runtime import SolverError
+    from depsim.runtime.ctarget import CBuildError
     from depsim.runtime.sweep import CheckpointError, StudyError, SweepSpecError
 
     if isinstance(exc, ModelError):
@@ -43,6 +48,9 @@ def _report(exc: Exception) -> int | None:
         print(f"depsim: error: {exc}", file=sys.stderr)
         return EXIT_MODEL
     if isinstance(exc, UsageError):
+        print(f"depsim: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    if isinstance(exc, CBuildError):
         print(f"depsim: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
     if isinstance(exc, (SweepSpecError, CheckpointError)):
@@ -70,14 +78,16 @@ def _parser() -> argparse.ArgumentParser:
 
     compile_ = commands.add_parser("compile", help="generate code for a model")
     compile_.add_argument("model", help="the .dep file")
-    compile_.add_argument("--target", choices=["numpy"], default="numpy")
+    compile_.add_argument("--target", choices=["numpy", "c"], default="numpy",
+                          help="numpy: a Python module; c: a standalone C folder (make -C DIR)")
     compile_.add_argument("-o", "--out", required=True, metavar="DIR", help="output folder")
     _add_elements(compile_)
     compile_.set_defaults(command=_compile)
 
     run = commands.add_parser("run", help="compile and simulate a model")
     run.add_argument("model", help="the .dep file")
-    run.add_argument("--target", choices=["numpy"], default="numpy")
+    run.add_argument("--target", choices=["numpy", "c"], default="numpy",
+                     help="numpy (default) or c (compiled shared library)")
     run.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                      help="override a parameter, units allowed (h1.preload=1.5N*m); repeatable")
     run.add_argument("--t-end", type=_positive_float, metavar="T", help="end time (s)")
@@ -92,7 +102,8 @@ def _parser() -> argparse.ArgumentParser:
 
     sweep = commands.add_parser("sweep", help="run a parameter study (grid or Monte Carlo)")
     sweep.add_argument("model", help="the .dep file")
-    sweep.add_argument("--target", choices=["numpy"], default="numpy")
+    sweep.add_argument("--target", choices=["numpy", "c"], default=None,
+                       help="default: c when a C compiler is present, else numpy")
     sweep.add_argument("--grid", action="append", default=[], metavar="NAME=START:STOP:N",
                        help="a grid axis; several axes give the full factorial; repeatable")
     sweep.add_argument("--sample", action="append", default=[], metavar="NAME=DIST(...)",
@@ -191,8 +202,17 @@ def _check(args) -> int:
 
 def _compile(args) -> int:
     model = _load(args)
-    sim = model.compile(target=args.target, out_dir=args.out)
-    print(f"wrote {sim.module.__file__}")
+    if args.target == "c":
+        from depsim.codegen import compile_c
+        from depsim.codegen.c_emit import c_program_name
+
+        folder = compile_c(model.ir, Path(args.out))
+        print(f"wrote {folder}: build with `make -C {folder}`, "
+              f"run `{folder}/{c_program_name(model.ir)} --help`")
+        return EXIT_OK
+    from depsim.codegen import compile_numpy
+
+    print(f"wrote {compile_numpy(model.ir, Path(args.out))}")
     return EXIT_OK
 
 
@@ -220,7 +240,9 @@ def _sweep(args) -> int:
     import depsim
     from depsim.runtime.sweep import plot_study, summarize
 
-    sim = _load(args).compile(target=args.target)
+    from depsim.api import default_target
+
+    sim = _load(args).compile(target=args.target or default_target())
     out = args.out or f"{Path(args.model).stem}-sweep.nc"
     study = depsim.sweep(sim, grid=args.grid, samples=args.sample, runs=args.runs,
                          seed=args.seed, t_end=args.t_end, dt_out=args.dt_out, tol=args.tol,

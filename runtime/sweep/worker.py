@@ -91,6 +91,11 @@ def load_module(ref: ModuleRef | str | os.PathLike) -> ModuleType:
             tmp = folder / f".{path.name}.{os.getpid()}.tmp"
             tmp.write_bytes(ref.source)
             os.replace(tmp, path)
+    if path.suffix in (".so", ".dylib", ".dll"):  # a C target's shared library
+        from depsim.runtime.ctarget import load_c_module
+
+        module = _MODULES[ref.sha256] = load_c_module(path)
+        return module
     name = f"_depsim_generated_{Path(ref.path).stem}_{ref.sha256[:16]}"
     spec = importlib.util.spec_from_file_location(name, path)
     if spec is None or spec.loader is None:

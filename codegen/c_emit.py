@@ -1,0 +1,204 @@
+"""C target: the model's functions as C99 (templates/c/), beside the C integrator (runtime/c/).
+
+`compile_c(model, out_dir)` writes a self-contained folder that `make -C out_dir` builds with a
+C compiler and libm only (docs/c-target.md):
+
+    model.c, model.h       the generated functions and the `depsim_model` description
+    *.c, *.h from runtime/c  the integrator (copied unchanged; never generated per model)
+    Makefile               builds the program `<name>` and the library `lib<name>.so`
+
+Same SymbolicSystem, same CSE lowering (`lower.lower_module`) as the NumPy module, printed by
+`CPrinter`; the C view-model here only adds what C needs (parameter declarations, unused
+arguments, zero fills, literal tables). Emission is byte-for-byte reproducible."""
+
+from __future__ import annotations
+
+import importlib.util
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+from depsim.dsl import ir
+
+from .c_printer import CPrinter, c_comment, c_double, c_file_stem, c_string
+from .derive import SymbolicSystem, derive
+from .emit import ENVIRONMENT
+from .lower import FunctionView, ModuleView, lower_module
+
+# One Environment (emit.ENVIRONMENT's settings and loader), with the C literal filters.
+C_ENVIRONMENT = ENVIRONMENT.overlay()
+C_ENVIRONMENT.filters.update(c_string=c_string, c_comment=c_comment, c_double=c_double)
+
+GENERATED_FILES = ("model.c", "model.h", "Makefile")
+PROGRAM_SOURCE = "main.c"  # the program's entry point, left out of the library
+
+_ARGUMENT_TYPES = {"q": "const double *q", "qd": "const double *qd", "t": "double t",
+                   "p": "const double *p"}
+
+
+@dataclass(frozen=True)
+class CEntry:
+    """One assignment `name[flat] = value;` and, for matrices, its `[row][col]` as a note."""
+
+    flat: int
+    value: str
+    note: str
+
+
+@dataclass(frozen=True)
+class CResult:
+    name: str
+    size: int
+    zero_fill: bool  # some entries are structurally zero: clear the array first (results
+    # are written completely, as NumPy's start from zeros)
+    entries: tuple[CEntry, ...]
+
+
+@dataclass(frozen=True)
+class CFunction:
+    name: str
+    declaration: str  # "const double *q, double t, const double *p, double *phi"
+    summary: str
+    unused: tuple[str, ...]  # parameters the body never reads: `(void)name;`
+    temporaries: tuple  # lower.Assignment
+    results: tuple[CResult, ...]
+
+
+@dataclass(frozen=True)
+class CTable:
+    """A constant table of the model: `static const <ctype> <name>[] = {values}` or NULL."""
+
+    field: str  # member of dep_model
+    name: str
+    ctype: str
+    values: tuple[str, ...]  # C literals
+
+    @property
+    def reference(self) -> str:
+        return self.name if self.values else "NULL"
+
+
+@dataclass(frozen=True)
+class CModuleView:
+    m: ModuleView
+    stem: str  # program and library name
+    sizes: tuple[tuple[str, int], ...]  # (dep_model field, value)
+    tables: tuple[CTable, ...]
+    functions: tuple[CFunction, ...]
+    library_sources: tuple[str, ...]  # .c files of the library (model.c and the integrator)
+    headers: tuple[str, ...]
+
+
+def runtime_c_dir() -> Path:
+    """The integrator's C sources (runtime/c, installed as package data of depsim.runtime);
+    found without importing depsim.runtime."""
+    spec = importlib.util.find_spec("depsim.runtime")
+    assert spec is not None and spec.submodule_search_locations, "depsim.runtime not found"
+    return Path(list(spec.submodule_search_locations)[0]) / "c"
+
+
+def _uses(texts: list[str], arg: str) -> bool:
+    pattern = re.compile(rf"\b{arg}\b" if arg == "t" else rf"\b{arg}\[")
+    return any(pattern.search(text) for text in texts)
+
+
+def c_function(f: FunctionView) -> CFunction:
+    """The C view of one lowered function."""
+    texts = [a.value for a in f.temporaries] + [e.value for r in f.results for e in r.entries]
+    unused = [a for a in f.args if not _uses(texts, a)]
+    results = []
+    for r in f.results:
+        size = 1
+        for extent in r.shape:
+            size *= extent
+        entries = tuple(CEntry(e.flat, e.value, "" if len(e.index) == 1 else
+                               f"  /* [{e.index[0]}][{e.index[1]}] */") for e in r.entries)
+        results.append(CResult(r.name, size, len(entries) < size, entries))
+        if size == 0:  # an empty result (no dissipators, no outputs): nothing to write
+            unused.append(r.name)
+    declaration = ", ".join([_ARGUMENT_TYPES[a] for a in f.args]
+                            + [f"double *{r.name}" for r in f.results])
+    return CFunction(f.name, declaration, f.summary, tuple(unused), f.temporaries,
+                     tuple(results))
+
+
+def _tables(m: ModuleView) -> tuple[CTable, ...]:
+    def strings(field, name, values):
+        return CTable(field, name, "const char *const", tuple(map(c_string, values)))
+
+    return (
+        strings("coordinate_names", "COORDINATES", m.coordinates),
+        strings("parameter_names", "PARAMETERS", m.parameters),
+        CTable("parameter_defaults", "PARAMETER_DEFAULTS", "const double",
+               tuple(map(c_double, m.parameter_defaults))),
+        strings("parameter_units", "PARAMETER_UNITS", m.parameter_units),
+        strings("constraint_names", "CONSTRAINTS", m.constraints),
+        strings("constraint_joints", "CONSTRAINT_JOINTS", m.constraint_joints),
+        CTable("phi_q_rows", "PHI_Q_ROWS", "const int", tuple(map(str, m.phi_q_rows))),
+        CTable("phi_q_cols", "PHI_Q_COLS", "const int", tuple(map(str, m.phi_q_cols))),
+        strings("hinge_names", "HINGES", m.hinges),
+        strings("hinge_property_names", "HINGE_PROPERTIES", m.hinge_properties),
+        strings("slider_names", "SLIDERS", m.sliders),
+        strings("output_names", "OUTPUTS", m.outputs),
+        strings("output_units", "OUTPUT_UNITS", m.output_units),
+        strings("energy_names", "ENERGIES", m.energies),
+        strings("dissipator_names", "DISSIPATORS", m.dissipators),
+    )
+
+
+def c_view(view: ModuleView, runtime_files: tuple[str, ...]) -> CModuleView:
+    """The C target's view-model of a lowered module; `runtime_files`: names in runtime/c."""
+    m = view
+    sizes = (("nq", len(m.coordinates)), ("nc", len(m.constraints)), ("np", len(m.parameters)),
+             ("nnz", len(m.phi_q_rows)), ("nh", len(m.hinges)),
+             ("nhp", len(m.hinge_properties)), ("ns", len(m.sliders)),
+             ("nout", len(m.outputs)), ("ne", len(m.energies)), ("nd", len(m.dissipators)))
+    sources = ("model.c",) + tuple(sorted(f for f in runtime_files
+                                          if f.endswith(".c") and f != PROGRAM_SOURCE))
+    headers = ("model.h",) + tuple(sorted(f for f in runtime_files if f.endswith(".h")))
+    return CModuleView(m, c_file_stem(m.model_name), sizes, _tables(m),
+                       tuple(c_function(f) for f in m.functions), sources, headers)
+
+
+def c_sources(model: ir.Model, system: SymbolicSystem | None = None) -> dict[str, str]:
+    """The generated files of the C target (model.c, model.h, Makefile) as text; no file
+    written. The integrator's sources (runtime/c) are not included."""
+    from depsim import __version__  # the facade package imports codegen lazily
+
+    view = lower_module(model, system or derive(model), CPrinter, __version__)
+    runtime = tuple(sorted(path.name for path in runtime_c_dir().iterdir()
+                           if path.suffix in (".c", ".h")))
+    c = c_view(view, runtime)
+    return {name: C_ENVIRONMENT.get_template(f"c/{name}.j2").render(c=c, m=view)
+            for name in GENERATED_FILES}
+
+
+def compile_c(model: ir.Model, out_dir: Path, system: SymbolicSystem | None = None) -> Path:
+    """Write the C target's folder for `model` into `out_dir` (created if needed): generated
+    model.c/model.h, the integrator's sources, a Makefile. Returns `out_dir`.
+    `system`: an already derived SymbolicSystem of the model, to skip derivation.
+    Build with `make -C out_dir` (program `<name>`, library `lib<name>.so`) or
+    `depsim.runtime.clib.build_library(out_dir)`."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    for path in sorted(runtime_c_dir().iterdir()):
+        if path.suffix in (".c", ".h"):
+            _write_if_changed(out_dir / path.name, path.read_text(encoding="utf-8"))
+    for name, text in c_sources(model, system).items():
+        _write_if_changed(out_dir / name, text)
+    return out_dir
+
+
+def c_program_name(model: ir.Model) -> str:
+    """The name of the program (and of `lib<name>.so`) `compile_c` builds for `model`."""
+    return c_file_stem(model.name)
+
+
+def _write_if_changed(path: Path, text: str) -> None:
+    """Write `text` unless the file holds it already (keeps make's timestamps meaningful)."""
+    if path.exists() and path.read_text(encoding="utf-8") == text:
+        return
+    path.write_text(text, encoding="utf-8", newline="\n")
+
+
+__all__ = ["compile_c", "c_sources", "c_program_name", "runtime_c_dir"]

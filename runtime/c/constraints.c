@@ -1,0 +1,340 @@
+/* constraints.c: the active constraint set, the model's NC rows followed by rows added by
+ * events (hinge locks, linear rows), and every level of the constraint error:
+ *
+ *     v_pos = -Phi(q, t),  v_vel = -Phi_q qd - Phi_t,  v_acc = gamma(q, qd, t) - Phi_q qdd.
+ *
+ * Port of constraints.py (ConstraintSet, HingeLock, LinearConstraint, check_consistency).
+ */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "runtime.h"
+
+#define CONSISTENCY 1e3 /* a (re)start state may violate its constraints by this many tols */
+
+int dep_constraints_init(dep_constraints *cs, const dep_system *system, dep_arena *arena)
+{
+    const dep_model *model = system->model;
+    size_t nq = (size_t)system->nq, nh = (size_t)model->nh;
+    memset(cs, 0, sizeof *cs);
+    cs->system = system;
+    cs->nq = system->nq;
+    cs->nc_module = cs->nc = model->nc;
+    cs->capacity = model->nc + DEP_MAX_ADDED;
+    cs->row_names = dep_bytes(arena, (size_t)cs->capacity * sizeof *cs->row_names);
+    cs->row_joints = dep_bytes(arena, (size_t)cs->capacity * sizeof *cs->row_joints);
+    cs->values = dep_doubles(arena, (size_t)model->nnz);
+    cs->theta = dep_doubles(arena, nh);
+    cs->hinge_jacobian = dep_doubles(arena, nh * nq);
+    for (int i = 0; i < DEP_MAX_ADDED; ++i) {
+        cs->added[i].row = dep_doubles(arena, nq);
+    }
+    if (arena->failed) {
+        return DEP_MEMORY_ERROR;
+    }
+    for (int i = 0; i < model->nc; ++i) {
+        cs->row_names[i] = model->constraint_names[i];
+        cs->row_joints[i] = model->constraint_joints[i];
+    }
+    return DEP_OK;
+}
+
+/* ---- the added rows (HingeLock, LinearConstraint) ----------------------------------------- */
+
+static double row_phi(dep_constraints *cs, const dep_added_row *r, const double *q)
+{
+    const dep_system *s = cs->system;
+    if (r->kind == DEP_ROW_HINGE_LOCK) {
+        s->model->hinge_angles(q, s->p, cs->theta);
+        return cs->theta[r->hinge] - r->angle;
+    }
+    double sum = 0.0;
+    for (int j = 0; j < cs->nq; ++j) {
+        sum += r->row[j] * q[j];
+    }
+    return sum - r->value;
+}
+
+/* The row's Jacobian (nq) at q, in `out` or (linear rows) its own storage. */
+static const double *row_jacobian(dep_constraints *cs, const dep_added_row *r, const double *q,
+                                  double *out)
+{
+    const dep_system *s = cs->system;
+    if (r->kind == DEP_ROW_LINEAR) {
+        return r->row;
+    }
+    s->model->hinge_jacobian(q, s->p, out);
+    return out + (size_t)r->hinge * (size_t)cs->nq;
+}
+
+/* HingeLock.gamma: the model's hinge_gamma, -(J_k qd)_q qd (zero for rigid bodies); zero
+   for linear rows. */
+static double row_gamma(dep_constraints *cs, const dep_added_row *r, const double *q,
+                        const double *qd)
+{
+    const dep_system *s = cs->system;
+    if (r->kind == DEP_ROW_LINEAR) {
+        return 0.0;
+    }
+    s->model->hinge_gamma(q, qd, s->p, cs->theta);
+    return cs->theta[r->hinge];
+}
+
+/* ---- every level, for the active rows ---------------------------------------------------- */
+
+void dep_cs_phi(dep_constraints *cs, const double *q, double t, double *out)
+{
+    cs->system->model->phi(q, t, cs->system->p, out);
+    for (int i = 0; i < cs->n_added; ++i) {
+        out[cs->nc_module + i] = row_phi(cs, &cs->added[i], q);
+    }
+}
+
+void dep_cs_jacobian(dep_constraints *cs, const double *q, double t, double *J)
+{
+    const dep_model *model = cs->system->model;
+    int nq = cs->nq;
+    memset(J, 0, (size_t)cs->nc * (size_t)nq * sizeof *J);
+    model->phi_q(q, t, cs->system->p, cs->values);
+    for (int k = 0; k < model->nnz; ++k) {
+        J[model->phi_q_rows[k] * nq + model->phi_q_cols[k]] = cs->values[k];
+    }
+    for (int i = 0; i < cs->n_added; ++i) {
+        const double *row = row_jacobian(cs, &cs->added[i], q, cs->hinge_jacobian);
+        memcpy(J + (size_t)(cs->nc_module + i) * (size_t)nq, row, (size_t)nq * sizeof *J);
+    }
+}
+
+void dep_cs_jacobian_transpose_times(dep_constraints *cs, const double *q, double t,
+                                     const double *lam, double *out)
+{
+    const dep_model *model = cs->system->model;
+    memset(out, 0, (size_t)cs->nq * sizeof *out);
+    model->phi_q(q, t, cs->system->p, cs->values);
+    for (int k = 0; k < model->nnz; ++k) { /* np.bincount order */
+        out[model->phi_q_cols[k]] += cs->values[k] * lam[model->phi_q_rows[k]];
+    }
+    for (int i = 0; i < cs->n_added; ++i) {
+        const double *row = row_jacobian(cs, &cs->added[i], q, cs->hinge_jacobian);
+        for (int j = 0; j < cs->nq; ++j) {
+            out[j] += row[j] * lam[cs->nc_module + i];
+        }
+    }
+}
+
+void dep_cs_phi_t(dep_constraints *cs, const double *q, double t, double *out)
+{
+    cs->system->model->phi_t(q, t, cs->system->p, out);
+    for (int i = 0; i < cs->n_added; ++i) {
+        out[cs->nc_module + i] = 0.0;
+    }
+}
+
+void dep_cs_gamma(dep_constraints *cs, const double *q, const double *qd, double t, double *out)
+{
+    cs->system->model->gamma(q, qd, t, cs->system->p, out);
+    for (int i = 0; i < cs->n_added; ++i) {
+        out[cs->nc_module + i] = row_gamma(cs, &cs->added[i], q, qd);
+    }
+}
+
+void dep_cs_v_vel(dep_constraints *cs, const double *q, const double *qd, double t,
+                  const double *J, double *out)
+{
+    dep_cs_phi_t(cs, q, t, out);
+    for (int i = 0; i < cs->nc; ++i) {
+        double sum = 0.0;
+        for (int j = 0; j < cs->nq; ++j) {
+            sum += J[i * cs->nq + j] * qd[j];
+        }
+        out[i] = -sum - out[i];
+    }
+}
+
+void dep_cs_v_acc(dep_constraints *cs, const double *q, const double *qd, const double *qdd,
+                  double t, const double *J, double *out)
+{
+    dep_cs_gamma(cs, q, qd, t, out);
+    for (int i = 0; i < cs->nc; ++i) {
+        double sum = 0.0;
+        for (int j = 0; j < cs->nq; ++j) {
+            sum += J[i * cs->nq + j] * qdd[j];
+        }
+        out[i] -= sum;
+    }
+}
+
+/* "hinge h3", "slider s1", "lock h1": the joint of a row for messages. */
+void dep_cs_describe(const dep_constraints *cs, int row, char *joint_text, size_t size)
+{
+    const char *joint = cs->row_joints[row];
+    const char *kind = row >= cs->nc_module ? "lock" : dep_joint_kind(cs->system, joint);
+    snprintf(joint_text, size, "%s %s", kind, joint);
+}
+
+/* ---- changing the set after an event (ConstraintSet.without / with_rows) --------------- */
+
+static void refresh_names(dep_constraints *cs)
+{
+    cs->nc = cs->nc_module + cs->n_added;
+    for (int i = 0; i < cs->n_added; ++i) {
+        cs->row_names[cs->nc_module + i] = cs->added[i].name;
+        cs->row_joints[cs->nc_module + i] = cs->added[i].joint;
+    }
+}
+
+int dep_cs_remove(dep_constraints *cs, const char *name)
+{
+    int kept = 0;
+    for (int i = 0; i < cs->n_added; ++i) {
+        if (strcmp(cs->added[i].name, name) == 0) {
+            continue;
+        }
+        if (kept != i) { /* keep each row's storage: swap the structs */
+            dep_added_row moved = cs->added[kept];
+            cs->added[kept] = cs->added[i];
+            cs->added[i] = moved;
+        }
+        ++kept;
+    }
+    cs->n_added = kept;
+    refresh_names(cs);
+    return DEP_OK;
+}
+
+/* Append a copy of `row` (its id kept, or a new one when it has none). */
+int dep_cs_add_row(dep_constraints *cs, const dep_added_row *row, dep_error *error)
+{
+    char message[DEP_NAME_MAX + 80];
+    if (cs->n_added == DEP_MAX_ADDED) {
+        snprintf(message, sizeof message, "more than %d added constraint rows", DEP_MAX_ADDED);
+        return dep_plain_error(error, DEP_CALLBACK_ERROR, message);
+    }
+    if (dep_cs_index(cs, row->name) >= 0) {
+        snprintf(message, sizeof message, "constraint rows named twice: %s", row->name);
+        return dep_plain_error(error, DEP_SETTINGS_ERROR, message);
+    }
+    dep_added_row *r = &cs->added[cs->n_added];
+    double *storage = r->row;
+    *r = *row;
+    r->row = storage;
+    if (row->kind == DEP_ROW_LINEAR) {
+        memcpy(r->row, row->row, (size_t)cs->nq * sizeof *r->row);
+    }
+    r->id = row->id != 0 ? row->id : ++cs->next_id;
+    cs->n_added++;
+    refresh_names(cs);
+    return DEP_OK;
+}
+
+/* A row of an event callback (dep_row) as an added row: checked, named "<hinge>.lock" by
+   default (HingeLock), its joint the hinge. */
+int dep_cs_prepare_row(const dep_constraints *cs, const dep_row *row, dep_added_row *out,
+                       dep_error *error)
+{
+    const dep_model *model = cs->system->model;
+    char message[DEP_NAME_MAX + 80];
+    if (row->kind == DEP_ROW_HINGE_LOCK && (row->hinge < 0 || row->hinge >= model->nh)) {
+        snprintf(message, sizeof message, "unknown hinge index %d", row->hinge);
+        return dep_plain_error(error, DEP_CALLBACK_ERROR, message);
+    }
+    if (row->kind != DEP_ROW_HINGE_LOCK && (row->kind != DEP_ROW_LINEAR || row->row == NULL)) {
+        return dep_plain_error(error, DEP_CALLBACK_ERROR, "an added row needs a kind and data");
+    }
+    const char *hinge = row->kind == DEP_ROW_HINGE_LOCK ? model->hinge_names[row->hinge] : "";
+    memset(out, 0, sizeof *out);
+    out->kind = row->kind;
+    out->hinge = row->hinge;
+    out->angle = row->angle;
+    out->value = row->value;
+    out->row = (double *)row->row;
+    if (row->name[0] != '\0') {
+        dep_copy_text(out->name, sizeof out->name, row->name);
+    } else {
+        snprintf(out->name, sizeof out->name, "%.*s.lock", DEP_NAME_MAX - 6, hinge);
+    }
+    dep_copy_text(out->joint, sizeof out->joint, row->joint[0] != '\0' ? row->joint : hinge);
+    return DEP_OK;
+}
+
+int dep_cs_add(dep_constraints *cs, const dep_row *row, dep_error *error)
+{
+    dep_added_row r;
+    int status = dep_cs_prepare_row(cs, row, &r, error);
+    return status == DEP_OK ? dep_cs_add_row(cs, &r, error) : status;
+}
+
+/* The position of row `name` among the active rows, or -1. */
+int dep_cs_index(const dep_constraints *cs, const char *name)
+{
+    for (int i = 0; i < cs->nc; ++i) {
+        if (strcmp(cs->row_names[i], name) == 0) {
+            return i;
+        }
+    }
+    return -1;
+}
+
+/* The module's rows followed by copies of rows[0..n) (a new ConstraintSet). */
+void dep_cs_assign(dep_constraints *cs, const dep_added_row *rows, int n)
+{
+    cs->n_added = 0;
+    for (int i = 0; i < n && i < DEP_MAX_ADDED; ++i) {
+        dep_added_row *r = &cs->added[i];
+        double *storage = r->row;
+        *r = rows[i];
+        r->row = storage;
+        if (rows[i].kind == DEP_ROW_LINEAR) {
+            memcpy(r->row, rows[i].row, (size_t)cs->nq * sizeof *r->row);
+        }
+        cs->n_added++;
+    }
+    refresh_names(cs);
+}
+
+/* ---- check_consistency ------------------------------------------------------------------- */
+
+static int violation(dep_constraints *cs, double t, const double *v, const double *values,
+                     double tol, const char *stage, const char *level, const char *quantity,
+                     dep_error *error)
+{
+    double limit = CONSISTENCY * tol * fmax(1.0, dep_max_abs(values, cs->nq));
+    int row = -1;
+    for (int i = 0; i < cs->nc; ++i) { /* np.nanargmax of |v| */
+        if (!isnan(v[i]) && (row < 0 || fabs(v[i]) > fabs(v[row]))) {
+            row = i;
+        }
+    }
+    if (cs->nc == 0 || (row >= 0 && fabs(v[row]) <= limit && dep_max_abs(v, cs->nc) <= limit)) {
+        return DEP_OK;
+    }
+    row = row < 0 ? 0 : row;
+    char what[300], joint[DEP_NAME_MAX + 8];
+    dep_cs_describe(cs, row, joint, sizeof joint);
+    snprintf(what, sizeof what, "the %s violates the %s constraint: |%s| = %.3g > %.1g", stage,
+             level, quantity, fabs(v[row]), limit);
+    const char *hint = strcmp(stage, "initial state") == 0
+        ? "check the initial angles and rates of the joints in this joint's closed loop"
+        : "an event callback must leave a state on the new constraints (impact=True makes "
+          "the velocity jump)";
+    return dep_solver_error(error, 1, t, stage, cs->row_names[row], joint, 1, fabs(v[row]),
+                            what, hint);
+}
+
+int dep_check_consistency(dep_constraints *cs, double t, const double *q, const double *qd,
+                          double tol, const char *stage, double *scratch, dep_error *error)
+{
+    double *J = scratch, *v = scratch + (size_t)cs->nc * (size_t)cs->nq;
+    dep_cs_jacobian(cs, q, t, J);
+    dep_cs_phi(cs, q, t, v);
+    for (int i = 0; i < cs->nc; ++i) {
+        v[i] = -v[i];
+    }
+    int status = violation(cs, t, v, q, tol, stage, "position", "Phi", error);
+    if (status != DEP_OK) {
+        return status;
+    }
+    dep_cs_v_vel(cs, q, qd, t, J, v);
+    return violation(cs, t, v, qd, tol, stage, "velocity", "Phi_q qd + Phi_t", error);
+}

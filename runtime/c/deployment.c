@@ -1,0 +1,340 @@
+/* deployment.c: the modes of the model's hinges with latches, hard stops and stick-slip
+ * friction, and the events that change them. Port of deployment.py's Mechanism (and
+ * HingeMechanics; docs/deployment.md).
+ *
+ * A hinge with a `latch`, `stop_min`/`stop_max` or `static_friction` in hinge_properties()
+ * keeps a mode; one event per (hinge, kind) has g > 0 while the mode holds and falls through
+ * zero when it must change (transitions.c then applies the change).
+ */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "runtime.h"
+
+static const char *const KIND_NAMES[4] = {"latch", "stop_min", "stop_max", "stick"};
+static const char *const PROPERTIES[8] = {"latch", "latch_stiffness", "latch_damping",
+                                          "stop_min", "stop_max", "friction",
+                                          "static_friction", "slip_rate"};
+
+const char *dep_kind_name(int kind)
+{
+    return KIND_NAMES[kind];
+}
+
+/* ---- a hinge's mode ------------------------------------------------------------------------ */
+
+int dep_hinge_locked(const dep_hinge_mechanics *h)
+{
+    return h->latch_state == DEP_LATCHED || h->stop != DEP_STOP_NONE;
+}
+
+int dep_hinge_sliding(const dep_hinge_mechanics *h)
+{
+    return h->has_static && !dep_hinge_locked(h) && !h->stuck;
+}
+
+/* The runtime replaces the model's tanh friction of this hinge: always with static friction
+   (stick-slip), and while a latch or stop locks it (the tanh law would act as a stiff damper
+   against the lock row). */
+int dep_hinge_owns_friction(const dep_hinge_mechanics *h)
+{
+    return h->kinetic > 0 && (h->has_static || dep_hinge_locked(h));
+}
+
+static int kinds(const dep_hinge_mechanics *h, int *out)
+{
+    int present[4] = {h->has_latch, h->has_stop_min, h->has_stop_max, h->has_static}, n = 0;
+    for (int k = 0; k < 4; ++k) {
+        if (present[k]) {
+            out[n++] = k;
+        }
+    }
+    return n;
+}
+
+/* The hinge's properties from its row of hinge_properties (NAN: not given). */
+static void read_hinge(dep_hinge_mechanics *h, const double *row, const int *column)
+{
+    double v[8];
+    for (int k = 0; k < 8; ++k) {
+        v[k] = column[k] >= 0 ? row[column[k]] : NAN;
+    }
+    h->has_latch = !isnan(v[0]);
+    h->latch = v[0];
+    h->compliant = h->has_latch && !isnan(v[1]);
+    h->latch_stiffness = v[1];
+    h->latch_damping = isnan(v[2]) || v[2] == 0.0 ? 0.0 : v[2];
+    h->has_stop_min = !isnan(v[3]);
+    h->stop_min = v[3];
+    h->has_stop_max = !isnan(v[4]);
+    h->stop_max = v[4];
+    h->kinetic = isnan(v[5]) || v[5] == 0.0 ? 0.0 : v[5];
+    h->has_static = !isnan(v[6]);
+    h->static_friction = v[6];
+    h->slip_rate = isnan(v[7]) || v[7] == 0.0 ? 1e-3 : v[7];
+    h->latch_side = 1.0;
+    h->direction = 1.0;
+    h->latch_state = DEP_OPEN;
+    h->stop = DEP_STOP_NONE;
+    h->stuck = 0;
+}
+
+static int latch_g(void *, double, const double *, const double *, const dep_active_rows *,
+                   double *);
+static int stop_g(void *, double, const double *, const double *, const dep_active_rows *,
+                  double *);
+static int stick_g(void *, double, const double *, const double *, const dep_active_rows *,
+                   double *);
+
+static void make_events(dep_mechanism *m)
+{
+    int n = 0, list[4];
+    for (int i = 0; i < m->n_hinges; ++i) {
+        int count = kinds(&m->hinges[i], list);
+        for (int k = 0; k < count; ++k, ++n) {
+            dep_mechanism_event *info = &m->info[n];
+            info->mechanism = m;
+            info->hinge = &m->hinges[i];
+            info->kind = list[k];
+            snprintf(info->name, sizeof info->name, "%s.%s", m->hinges[i].name,
+                     KIND_NAMES[list[k]]);
+            dep_event *e = &m->events[n];
+            e->name = info->name;
+            e->function = list[k] == DEP_KIND_LATCH ? latch_g
+                          : list[k] == DEP_KIND_STICK ? stick_g : stop_g;
+            e->direction = -1;
+            e->context = info;
+            e->max_hits = -1;
+            e->multipliers = list[k] != DEP_KIND_LATCH;
+        }
+    }
+}
+
+/* Mechanism.for_module: *out is NULL when no hinge has a latch, a stop or static friction. */
+int dep_mechanism_create(dep_mechanism **out, const dep_model *model, const double *p,
+                         dep_arena *arena)
+{
+    int nh = model->nh, nhp = model->nhp, column[8], list[4];
+    double *table = dep_doubles(arena, (size_t)nh * (size_t)nhp);
+    dep_hinge_mechanics *hinges = dep_bytes(arena, (size_t)(nh ? nh : 1) * sizeof *hinges);
+    *out = NULL;
+    if (arena->failed) {
+        return DEP_MEMORY_ERROR;
+    }
+    for (int k = 0; k < 8; ++k) {
+        column[k] = -1;
+        for (int c = 0; c < nhp; ++c) {
+            column[k] = strcmp(model->hinge_property_names[c], PROPERTIES[k]) == 0 ? c : column[k];
+        }
+    }
+    model->hinge_properties(p, table);
+    int n_hinges = 0, n_events = 0;
+    for (int i = 0; i < nh; ++i) {
+        dep_hinge_mechanics *h = &hinges[n_hinges];
+        read_hinge(h, table + (size_t)i * (size_t)nhp, column);
+        h->index = i;
+        h->name = model->hinge_names[i];
+        int count = kinds(h, list);
+        n_events += count;
+        n_hinges += count > 0;
+    }
+    if (n_hinges == 0) {
+        return DEP_OK;
+    }
+    dep_mechanism *m = dep_bytes(arena, sizeof *m);
+    if (m == NULL) {
+        return DEP_MEMORY_ERROR;
+    }
+    m->model = model;
+    m->p = p;
+    m->hinges = hinges;
+    m->n_hinges = n_hinges;
+    m->n_events = n_events;
+    m->info = dep_bytes(arena, (size_t)n_events * sizeof *m->info);
+    m->events = dep_bytes(arena, (size_t)n_events * sizeof *m->events);
+    m->angles = dep_doubles(arena, (size_t)nh);
+    m->rates = dep_doubles(arena, (size_t)nh);
+    m->tau = dep_doubles(arena, (size_t)nh);
+    m->hinge_jacobian = dep_doubles(arena, (size_t)nh * (size_t)model->nq);
+    m->base = dep_doubles(arena, (size_t)model->nd + (size_t)nh + 1);
+    if (arena->failed) {
+        return DEP_MEMORY_ERROR;
+    }
+    for (int i = 0; i < n_hinges; ++i) {
+        m->n_compliant += hinges[i].compliant;
+        m->n_latches += hinges[i].has_latch;
+    }
+    make_events(m);
+    *out = m;
+    return DEP_OK;
+}
+
+/* MechanismSystem: the system's dissipators and energies gain the mechanism's. */
+int dep_mechanism_bind(dep_mechanism *m, const dep_system *system, double tol,
+                       dep_arena *arena)
+{
+    dep_system *s = (dep_system *)system;
+    const dep_model *model = m->model;
+    int nd = model->nd + m->n_compliant, ne = model->ne + m->n_compliant, d, e;
+    m->system = system;
+    m->tol = tol;
+    s->mechanism = m;
+    s->dissipator_names = dep_bytes(arena, (size_t)(nd ? nd : 1) * sizeof(char *));
+    s->energy_names = dep_bytes(arena, (size_t)(ne ? ne : 1) * sizeof(char *));
+    if (s->dissipator_names == NULL || s->energy_names == NULL) {
+        return DEP_MEMORY_ERROR;
+    }
+    for (d = 0; d < model->nd; ++d) {
+        s->dissipator_names[d] = model->dissipator_names[d];
+    }
+    for (e = 0; e < model->ne; ++e) {
+        s->energy_names[e] = model->energy_names[e];
+    }
+    for (int i = 0; i < m->n_hinges; ++i) {
+        if (m->hinges[i].compliant) {
+            char *name = dep_bytes(arena, strlen(m->hinges[i].name) + 7);
+            if (name == NULL) {
+                return DEP_MEMORY_ERROR;
+            }
+            sprintf(name, "latch.%s", m->hinges[i].name);
+            s->dissipator_names[d++] = name;
+            s->energy_names[e++] = name;
+        }
+    }
+    s->nd = nd;
+    s->ne = ne;
+    return dep_settle_init(m, arena);
+}
+
+/* ---- kinematics and the event functions ------------------------------------------------ */
+
+double dep_mechanism_angle(dep_mechanism *m, const dep_hinge_mechanics *h, const double *q)
+{
+    m->model->hinge_angles(q, m->p, m->angles);
+    return m->angles[h->index];
+}
+
+double dep_mechanism_rate(dep_mechanism *m, const dep_hinge_mechanics *h, const double *q,
+                          const double *qd)
+{
+    m->model->hinge_rates(q, qd, m->p, m->rates);
+    return m->rates[h->index];
+}
+
+/* The multiplier of row "<hinge>.<suffix>"; non-zero when the row is not active. */
+static int multiplier(const dep_active_rows *rows, const dep_hinge_mechanics *h,
+                      const char *suffix, double *value)
+{
+    char name[DEP_NAME_MAX + 16];
+    snprintf(name, sizeof name, "%s.%s", h->name, suffix);
+    for (int i = 0; rows != NULL && i < rows->nc; ++i) {
+        if (strcmp(rows->names[i], name) == 0) {
+            *value = rows->lam[i];
+            return 0;
+        }
+    }
+    return 1;
+}
+
+/* open / apart: side (lock - theta); contact: side (theta - lock); latched or stuck (a stuck
+   hinge does not move): 1. */
+static int latch_g(void *context, double t, const double *q, const double *qd,
+                   const dep_active_rows *rows, double *g)
+{
+    dep_mechanism_event *info = context;
+    dep_hinge_mechanics *h = info->hinge;
+    (void)t, (void)qd, (void)rows;
+    if (h->latch_state == DEP_LATCHED || h->stuck) {
+        *g = 1.0;
+        return 0;
+    }
+    double gap = h->latch_side * (h->latch - dep_mechanism_angle(info->mechanism, h, q));
+    *g = h->latch_state == DEP_CONTACT ? -gap : gap;
+    return 0;
+}
+
+/* free: stop_max - theta or theta - stop_min; at this stop: the pushing multiplier
+   (+lambda at stop_max, -lambda at stop_min); latched or stuck: 1. */
+static int stop_g(void *context, double t, const double *q, const double *qd,
+                  const dep_active_rows *rows, double *g)
+{
+    dep_mechanism_event *info = context;
+    dep_hinge_mechanics *h = info->hinge;
+    int at_max = info->kind == DEP_KIND_STOP_MAX;
+    double sign = at_max ? 1.0 : -1.0, lam;
+    (void)t, (void)qd;
+    if (h->latch_state == DEP_LATCHED || h->stuck) {
+        *g = 1.0;
+        return 0;
+    }
+    if (h->stop == (at_max ? DEP_STOP_MAX : DEP_STOP_MIN)) {
+        if (multiplier(rows, h, "stop", &lam) != 0) {
+            return 1;
+        }
+        *g = sign * lam;
+        return 0;
+    }
+    double limit = at_max ? h->stop_max : h->stop_min;
+    *g = sign * (limit - dep_mechanism_angle(info->mechanism, h, q));
+    return 0;
+}
+
+/* slipping: s rate; stuck: static_friction - |lambda_stick|; locked: 1. */
+static int stick_g(void *context, double t, const double *q, const double *qd,
+                   const dep_active_rows *rows, double *g)
+{
+    dep_mechanism_event *info = context;
+    dep_hinge_mechanics *h = info->hinge;
+    double lam;
+    (void)t;
+    if (dep_hinge_locked(h)) {
+        *g = 1.0;
+        return 0;
+    }
+    if (h->stuck) {
+        if (multiplier(rows, h, "stick", &lam) != 0) {
+            return 1;
+        }
+        *g = h->static_friction - fabs(lam);
+        return 0;
+    }
+    *g = h->direction * dep_mechanism_rate(info->mechanism, h, q, qd);
+    return 0;
+}
+
+/* Mechanism.start: latch sides and slip directions from the initial state; due[] gets the
+   events due at once (a hinge starting at its latch or at or beyond a stop, a stick-slip
+   hinge at rest), per hinge in the order latch, stop_max, stop_min, stick. */
+int dep_mechanism_start(dep_mechanism *m, const double *q, const double *qd, int *due)
+{
+    int n_due = 0;
+    for (int i = 0; i < m->n_hinges; ++i) {
+        dep_hinge_mechanics *h = &m->hinges[i];
+        double theta = dep_mechanism_angle(m, h, q), rate = dep_mechanism_rate(m, h, q, qd);
+        int kinds_due[4], n = 0;
+        if (h->has_latch) {
+            h->latch_side = theta != h->latch ? (theta < h->latch ? 1.0 : -1.0)
+                                              : (rate < 0 ? -1.0 : 1.0);
+            if (theta == h->latch) {
+                kinds_due[n++] = DEP_KIND_LATCH;
+            }
+        }
+        if (h->has_stop_max && theta >= h->stop_max) {
+            kinds_due[n++] = DEP_KIND_STOP_MAX;
+        }
+        if (h->has_stop_min && theta <= h->stop_min) {
+            kinds_due[n++] = DEP_KIND_STOP_MIN;
+        }
+        if (h->has_static) {
+            h->direction = rate == 0.0 ? 1.0 : rate > 0 ? 1.0 : -1.0;
+            if (rate == 0.0) {
+                kinds_due[n++] = DEP_KIND_STICK;
+            }
+        }
+        for (int k = 0; k < n; ++k) {
+            due[n_due++] = dep_settle_event_index(m, h, kinds_due[k]);
+        }
+    }
+    return n_due;
+}

@@ -1,0 +1,218 @@
+/* depsim.h: the iterative Lagrange-multiplier integrator in C (docs/c-target.md).
+ *
+ * A C port of depsim.runtime.simulate (docs/method.md): lambda linear over each step,
+ * Dormand-Prince 5(4) for the motion, three passes of the iteration (6) per step (position,
+ * velocity, acceleration), step control from the ODE and interpolation errors, dense output,
+ * events. It follows the Python integrator step for step, so both give the same numbers to
+ * round-off; it reads the model only through `dep_model` (depsim_model.h). With
+ * `mechanics` set it applies the hinges' latches, hard stops and stick-slip friction from
+ * `hinge_properties` as depsim.runtime does (deployment.py, transitions.py).
+ *
+ *     dep_settings settings = dep_default_settings(&depsim_model);
+ *     dep_result result;
+ *     dep_error error;
+ *     if (dep_simulate(&depsim_model, NULL, &settings, NULL, 0, &result, &error) != DEP_OK)
+ *         fprintf(stderr, "%s\n", error.message);
+ *     ...
+ *     dep_result_free(&result);
+ *
+ * Everything is SI (s, m, rad, N, J). No global state: runs in several threads are safe.
+ */
+#ifndef DEPSIM_H
+#define DEPSIM_H
+
+#include <stdio.h>
+
+#include "depsim_model.h"
+
+#define DEP_NAME_MAX 128   /* longest name (row, joint, event, data key) kept, with the NUL */
+#define DEP_MAX_ADDED 64   /* constraint rows an event may have added at one time */
+#define DEP_MAX_DATA 8     /* numbers a user event's response may attach to its record */
+
+/* Return codes of dep_simulate, also dep_error.code. */
+enum dep_status {
+    DEP_OK = 0,
+    DEP_SOLVER_ERROR = 3,    /* the integration cannot go on: Python's SolverError */
+    DEP_SETTINGS_ERROR = 4,  /* a bad setting or parameter value: Python's ValueError */
+    DEP_CALLBACK_ERROR = 5,  /* an event function or callback reported failure */
+    DEP_MEMORY_ERROR = 6     /* out of memory */
+};
+
+/* One run's settings (SI). dep_default_settings gives the model's own. */
+typedef struct dep_settings {
+    double t_end;  /* s, > 0 */
+    double dt_out; /* s, > 0: output every dt_out, and at t_end */
+    double tol;    /* integration tolerance, 100 eps <= tol < 1 */
+    int mechanics; /* 1: latches, stops, stick-slip from hinge_properties; 0: without */
+} dep_settings;
+
+/* Why a run stopped, with the parts of Python's SolverError. `message` is the full text,
+   exactly as str(SolverError) (or the ValueError text for DEP_SETTINGS_ERROR). */
+typedef struct dep_error {
+    int code;                     /* enum dep_status */
+    int has_t;
+    double t;                     /* s, when has_t */
+    char stage[32];               /* "position", "velocity", "acceleration", "initial state",
+                                     "step size", "setup", "settings", ... or "" */
+    char row[DEP_NAME_MAX];       /* constraint row, e.g. "h3.x", or "" */
+    char joint[DEP_NAME_MAX + 8]; /* e.g. "hinge h3", or "" */
+    int has_residual;
+    double residual;
+    char what[512];
+    char hint[512];
+    char message[1600];
+} dep_error;
+
+/* Constraint rows an event callback may add (Python's HingeLock and LinearConstraint). */
+enum dep_row_kind { DEP_ROW_HINGE_LOCK = 1, DEP_ROW_LINEAR = 2 };
+
+typedef struct dep_row {
+    int kind;                  /* enum dep_row_kind */
+    char name[DEP_NAME_MAX];   /* "" for a lock: "<hinge>.lock" */
+    char joint[DEP_NAME_MAX];  /* "" for a lock: the hinge */
+    int hinge;                 /* DEP_ROW_HINGE_LOCK: index into hinge_names */
+    double angle;              /* DEP_ROW_HINGE_LOCK: Phi = theta_hinge(q) - angle (rad) */
+    const double *row;         /* DEP_ROW_LINEAR: Phi = row . q - value (nq; copied) */
+    double value;
+} dep_row;
+
+/* What an event callback sees (valid during the call only). */
+typedef struct dep_event_hit {
+    const char *name;
+    double t;
+    const double *q, *qd;          /* nq */
+    const double *lam;             /* nc, the active rows' multipliers */
+    int nc;
+    const char *const *row_names;  /* nc names of the active rows */
+    const double *p;               /* np */
+    int n_added;
+    const dep_row *added;          /* the rows added at run time, in the set's order */
+} dep_event_hit;
+
+/* What to do after an event (Python's EventResponse); the integrator clears it to
+   {stop = -1, everything else 0/NULL} before the callback. */
+typedef struct dep_event_response {
+    int stop;                  /* -1: the event's `terminal`; 0: go on; 1: stop the run */
+    const double *q, *qd;      /* NULL: keep; else the new state (nq, copied) */
+    int n_add;
+    dep_row add[DEP_MAX_ADDED];
+    int n_remove;
+    char remove[DEP_MAX_ADDED][DEP_NAME_MAX];
+    int impact;                /* plastic impact onto the new constraint set */
+    int n_data;
+    char data_names[DEP_MAX_DATA][DEP_NAME_MAX];
+    double data_values[DEP_MAX_DATA];
+} dep_event_response;
+
+/* The active constraint rows and their multipliers, for events that watch them. */
+typedef struct dep_active_rows {
+    int nc;
+    const char *const *names;
+    const double *lam;
+} dep_active_rows;
+
+/* g(t, q, qd) crossing zero in `direction` (+1 rising, -1 falling, 0 both). With
+   `multipliers` set, `rows` holds the active rows' multipliers (else it is NULL): at a step
+   end the step's lambda, inside a step lambda from the acceleration pass there. Functions
+   return 0, or non-zero to abort the run with DEP_CALLBACK_ERROR. */
+typedef struct dep_event {
+    const char *name;
+    int (*function)(void *context, double t, const double *q, const double *qd,
+                    const dep_active_rows *rows, double *g);
+    int direction;
+    int (*callback)(void *context, const dep_event_hit *hit, dep_event_response *response);
+    void *context;             /* passed to function and callback */
+    int terminal;              /* stop unless the callback decides */
+    int max_hits;              /* < 0: unlimited */
+    int multipliers;           /* 1: function reads `rows` */
+} dep_event;
+
+typedef struct dep_pass_stats {
+    double mean;      /* iterations of (6) per accepted step */
+    long long max;
+    long long total;
+} dep_pass_stats;
+
+/* Python's Stats, field by field. */
+typedef struct dep_stats {
+    long long accepted_steps, rejected_steps, failed_steps, integrations, rhs_evaluations;
+    dep_pass_stats position, velocity, acceleration;
+    long long cg_iterations, factorizations;
+    double max_v_pos, max_v_vel, max_v_acc;
+    double min_step, max_step;
+    long long events;
+} dep_stats;
+
+/* One entry of an event record's data (Python's EventRecord.data): `key` -> a number, a
+   text, a truth value or None; entries with a `member` form the dict under `key` (e.g. the
+   impulse of every joint in "joint_impulses"). */
+enum dep_datum_kind { DEP_NUMBER = 0, DEP_TEXT = 1, DEP_BOOL = 2, DEP_NONE = 3 };
+
+typedef struct dep_datum {
+    char key[DEP_NAME_MAX];
+    char member[DEP_NAME_MAX]; /* "" unless the value belongs to the dict under `key` */
+    int kind;                  /* enum dep_datum_kind */
+    double number;             /* DEP_NUMBER, DEP_BOOL (0 or 1) */
+    char text[DEP_NAME_MAX];   /* DEP_TEXT */
+} dep_datum;
+
+typedef struct dep_event_record {
+    char name[DEP_NAME_MAX];
+    double t;
+    int n_data;
+    dep_datum *data;
+} dep_event_record;
+
+/* Largest hinge force magnitude (N) and lock torque magnitude (N m) with their times (s; NAN
+   when never loaded), at the output times' complement: the accepted step points. */
+typedef struct dep_peak {
+    double force, t_force, torque, t_torque;
+} dep_peak;
+
+/* A run's results at the n output times (Python's Result); arrays are row-major, one row
+   per output time. Free with dep_result_free. */
+typedef struct dep_result {
+    int n;                         /* output times */
+    int nq, nh, nout, ne, nd;
+    int n_rows;                    /* constraint rows ever active */
+    char **row_names;              /* n_rows */
+    double tol, constraint_tol, t_end, dt_out;
+    double *params;                /* np, the values used */
+    double *times;                 /* n, s */
+    double *q, *qd;                /* n x nq */
+    double *lam;                   /* n x n_rows, NAN where a row was not active */
+    double *hinge_angles, *hinge_rates;              /* n x nh */
+    double *outputs;                                 /* n x nout */
+    double *residual_pos, *residual_vel, *residual_acc; /* n */
+    double *energy;                                  /* n x ne, J */
+    double *dissipated;                              /* n x nd, J since t = 0 */
+    char **energy_names;           /* ne: the model's, then a compliant latch's spring */
+    char **dissipator_names;       /* nd: the model's, then "latch.<h>" */
+    double *hinge_torque;          /* n x nh, N m lock torque on member b, NAN if free */
+    int n_latch_hinges;
+    int *latch_hinges;             /* indices of the hinges with a latch */
+    dep_peak *peaks;               /* nh, hinge loads at the accepted step points */
+    dep_stats stats;
+    int n_events;
+    dep_event_record *events;
+} dep_result;
+
+/* The model's own settings (T_END, DT_OUT, TOL), mechanics on. */
+dep_settings dep_default_settings(const dep_model *model);
+
+/* Integrate `model` with parameters `params` (np values, NULL: the defaults) from its
+   assembled initial state. Fills `result` on success (DEP_OK) and `error` otherwise; on
+   failure `result` holds nothing to free. */
+int dep_simulate(const dep_model *model, const double *params, const dep_settings *settings,
+                 const dep_event *events, int n_events, dep_result *result, dep_error *error);
+
+void dep_result_free(dep_result *result);
+
+/* The run's summary, as Python's Result.report() and `depsim run` print it: deployment
+   (latches, peak hinge loads, dissipated energy), then the solver's work and the events. */
+void dep_report(const dep_model *model, const dep_result *result, FILE *out);
+
+/* The index of parameter `name`, or -1. */
+int dep_parameter_index(const dep_model *model, const char *name);
+
+#endif /* DEPSIM_H */

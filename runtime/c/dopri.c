@@ -1,0 +1,155 @@
+/* dopri.c: Dormand-Prince 5(4), one explicit step with its error estimate and continuous
+ * extension (Shampine's quartic), and the quintic Hermite interpolant of an accepted step of
+ * the multiplier method. Port of dopri.py; coefficients as there (Dormand & Prince 1980;
+ * Hairer, Norsett & Wanner, Solving ODEs I, II.6).
+ */
+#include <math.h>
+#include <string.h>
+
+#include "runtime.h"
+
+static const double C[6] = {0, 1.0 / 5, 3.0 / 10, 4.0 / 5, 8.0 / 9, 1};
+static const double A[6][5] = {
+    {0},
+    {1.0 / 5},
+    {3.0 / 40, 9.0 / 40},
+    {44.0 / 45, -56.0 / 15, 32.0 / 9},
+    {19372.0 / 6561, -25360.0 / 2187, 64448.0 / 6561, -212.0 / 729},
+    {9017.0 / 3168, -355.0 / 33, 46732.0 / 5247, 49.0 / 176, -5103.0 / 18656},
+};
+static const double B[6] = {35.0 / 384, 0, 500.0 / 1113, 125.0 / 192, -2187.0 / 6784,
+                            11.0 / 84};
+static const double E[7] = {-71.0 / 57600, 0, 71.0 / 16695, -71.0 / 1920, 17253.0 / 339200,
+                            -22.0 / 525, 1.0 / 40};
+static const double P[7][4] = {
+    {1, -8048581381.0 / 2820520608, 8663915743.0 / 2820520608, -12715105075.0 / 11282082432},
+    {0, 0, 0, 0},
+    {0, 131558114200.0 / 32700410799, -68118460800.0 / 10900136933,
+     87487479700.0 / 32700410799},
+    {0, -1754552775.0 / 470086768, 14199869525.0 / 1410260304, -10690763975.0 / 1880347072},
+    {0, 127303824393.0 / 49829197408, -318862633887.0 / 49829197408,
+     701980252875.0 / 199316789632},
+    {0, -282668133.0 / 205662961, 2019193451.0 / 616988883, -1453857185.0 / 822651844},
+    {0, 40617522.0 / 29380423, -110615467.0 / 29380423, 69997945.0 / 29380423},
+};
+
+int dep_rk_init(dep_rk_step *rk, int n, dep_arena *arena)
+{
+    memset(rk, 0, sizeof *rk);
+    rk->n = n;
+    rk->y1 = dep_doubles(arena, (size_t)n);
+    rk->error = dep_doubles(arena, (size_t)n);
+    rk->K = dep_doubles(arena, 7 * (size_t)n);
+    return arena->failed ? DEP_MEMORY_ERROR : DEP_OK;
+}
+
+/* sum_k coefficients[k] K[k] (stages k < count) into out (n): each component summed in stage
+   order, as numpy's `coefficients @ K` (the loop runs over the contiguous components). */
+static void combine(const double *coefficients, int count, const double *K, int n, double *out)
+{
+    for (int j = 0; j < n; ++j) {
+        out[j] = 0.0;
+    }
+    for (int k = 0; k < count; ++k) {
+        const double *stage = K + (size_t)k * (size_t)n;
+        for (int j = 0; j < n; ++j) {
+            out[j] += coefficients[k] * stage[j];
+        }
+    }
+}
+
+/* Advance y' = rhs(t, y) from (t0, y0) over h with first stage k1 = rhs(t0, y0); six
+   evaluations. `scratch`: n doubles. */
+void dep_dopri_step(dep_rk_step *rk, dep_rhs_function rhs, void *context, double t0,
+                    const double *y0, const double *k1, double h, double *scratch)
+{
+    int n = rk->n;
+    double *K = rk->K;
+    rk->t0 = t0;
+    rk->h = h;
+    rk->y0 = y0;
+    memcpy(K, k1, (size_t)n * sizeof *K);
+    for (int s = 1; s < 6; ++s) {
+        combine(A[s], s, K, n, scratch);
+        for (int j = 0; j < n; ++j) {
+            scratch[j] = y0[j] + h * scratch[j];
+        }
+        rhs(context, t0 + C[s] * h, scratch, K + (size_t)s * (size_t)n);
+    }
+    combine(B, 6, K, n, rk->y1);
+    for (int j = 0; j < n; ++j) {
+        rk->y1[j] = y0[j] + h * rk->y1[j];
+    }
+    rhs(context, t0 + h, rk->y1, K + 6 * (size_t)n);
+    combine(E, 7, K, n, rk->error);
+    for (int j = 0; j < n; ++j) {
+        rk->error[j] = h * rk->error[j];
+    }
+}
+
+/* Components first..first+count-1 of the continuous extension y(t) of the step
+   (DenseStep, 4th order). */
+void dep_dense_components(const dep_rk_step *rk, double t, int first, int count, double *out)
+{
+    int n = rk->n;
+    double x = (t - rk->t0) / rk->h;
+    double powers[4] = {x, x * x, pow(x, 3), pow(x, 4)};
+    for (int j = first; j < first + count; ++j) {
+        double sum = 0.0;
+        for (int c = 0; c < 4; ++c) {
+            double Q = 0.0; /* (K^T P)[j][c] */
+            for (int s = 0; s < 7; ++s) {
+                Q += rk->K[s * n + j] * P[s][c];
+            }
+            sum += Q * powers[c];
+        }
+        out[j - first] = rk->y0[j] + rk->h * sum;
+    }
+}
+
+/* StepInterpolant's data, 10 x nq: the quintic's rows (q0, h qd0, h^2 qdd0, q1, h qd1,
+   h^2 qdd1) then the cubic's (qd0, h qdd0, qd1, h qdd1). */
+void dep_interpolant_data(double h, const double *q0, const double *qd0, const double *qdd0,
+                          const double *q1, const double *qd1, const double *qdd1, int nq,
+                          double *data)
+{
+    double h2 = h * h;
+    for (int j = 0; j < nq; ++j) {
+        data[j] = q0[j];
+        data[nq + j] = h * qd0[j];
+        data[2 * nq + j] = h2 * qdd0[j];
+        data[3 * nq + j] = q1[j];
+        data[4 * nq + j] = h * qd1[j];
+        data[5 * nq + j] = h2 * qdd1[j];
+        data[6 * nq + j] = qd0[j];
+        data[7 * nq + j] = h * qdd0[j];
+        data[8 * nq + j] = qd1[j];
+        data[9 * nq + j] = h * qdd1[j];
+    }
+}
+
+/* q at t on the quintic Hermite interpolant of the two accepted states (q, qd, qdd at both
+   ends) and qd on the cubic Hermite interpolant of (qd, qdd): O(h^5) or better, see
+   dopri.py StepInterpolant. */
+void dep_interpolate(const double *data, double t0, double h, int nq, double t, double *q,
+                     double *qd)
+{
+    double x = (t - t0) / h;
+    double x2 = x * x, x3 = pow(x, 3);
+    double x4 = x3 * x, x5 = x3 * x2;
+    double quintic[6] = {1 - 10 * x3 + 15 * x4 - 6 * x5, x - 6 * x3 + 8 * x4 - 3 * x5,
+                         0.5 * (x2 - 3 * x3 + 3 * x4 - x5), 10 * x3 - 15 * x4 + 6 * x5,
+                         -4 * x3 + 7 * x4 - 3 * x5, 0.5 * (x3 - 2 * x4 + x5)};
+    double cubic[4] = {2 * x3 - 3 * x2 + 1, x3 - 2 * x2 + x, 3 * x2 - 2 * x3, x3 - x2};
+    for (int j = 0; j < nq; ++j) {
+        double value = 0.0, rate = 0.0;
+        for (int r = 0; r < 6; ++r) {
+            value += quintic[r] * data[r * nq + j];
+        }
+        for (int r = 0; r < 4; ++r) {
+            rate += cubic[r] * data[(6 + r) * nq + j];
+        }
+        q[j] = value;
+        qd[j] = rate;
+    }
+}

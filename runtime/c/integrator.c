@@ -1,0 +1,384 @@
+/* integrator.c: dep_simulate, the iterative Lagrange-multiplier integrator of the seed paper.
+ * Port of integrator.py (IterativeRun), step for step:
+ *
+ * check the initial state, find lambda_0 (acceleration pass), then take steps (stepper.c),
+ * control the step with the ODE and interpolation errors (controller.c), sample outputs on
+ * the dense output (recording.c), and handle events (events.c).
+ */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "runtime.h"
+
+/* Build with -DDEP_TRACE to print every attempted step to stderr, for comparison with the
+   Python integrator (tests/c/trace.py prints the same lines). */
+#ifdef DEP_TRACE
+#define TRACE(...) fprintf(stderr, __VA_ARGS__)
+#else
+#define TRACE(...) ((void)0)
+#endif
+
+#define MAX_FAILURES 12 /* consecutive non-converged steps (h / 4 each) before giving up */
+#define CAP_RELAX 1.2
+
+/* ---- errors ----------------------------------------------------------------------------- */
+
+/* _solver_error: a pass failure as the SolverError the user sees. */
+int dep_run_pass_error(dep_run *run, const dep_failure *failure, double t)
+{
+    char joint[DEP_NAME_MAX + 8], what[400], hint[400];
+    dep_cs_describe(&run->cs, failure->row, joint, sizeof joint);
+    if (failure->residual <= 1e3 * DEP_EPS * fmax(1.0, failure->scale)) {
+        snprintf(hint, sizeof hint, "the residual is at the level of round-off: tol is tighter "
+                 "than double precision reaches here; try tol >= %.0e", 10 * run->settings.tol);
+    } else {
+        snprintf(hint, sizeof hint, "Phi_q may be singular here (a dead point, a joint at the "
+                 "end of its travel) or constraints redundant and inconsistent; check %s and "
+                 "the joints in its loop, or try a looser tol", joint);
+    }
+    snprintf(what, sizeof what, "%s; residual %.3g", failure->reason, failure->residual);
+    return dep_solver_error(run->error, 1, t, dep_stage_names[failure->stage],
+                            run->cs.row_names[failure->row], joint, 1, failure->residual, what,
+                            hint);
+}
+
+/* ---- states ------------------------------------------------------------------------------ */
+
+/* _restart: a state to step from, checked for consistency, lambda from pass 3. */
+int dep_run_restart(dep_run *run, double t, const double *q, const double *qd,
+                    const double *work, const char *stage)
+{
+    dep_stepper *stepper = &run->stepper;
+    dep_state *s = &run->state;
+    dep_pass_report report;
+    dep_failure failure;
+    int status = dep_check_consistency(&run->cs, t, q, qd, run->settings.tol, stage,
+                                       run->scratch, run->error);
+    if (status != DEP_OK) {
+        return status;
+    }
+    memmove(s->q, q, (size_t)run->nq * sizeof *q);
+    memmove(s->qd, qd, (size_t)run->nq * sizeof *qd);
+    memmove(s->work, work, (size_t)run->nd * sizeof *work);
+    memset(s->lam, 0, (size_t)run->cs.nc * sizeof *s->lam);
+    s->t = t;
+    dep_cs_jacobian(&run->cs, s->q, t, stepper->restart_J);
+    status = dep_acceleration(stepper, s->q, s->qd, t, s->lam, stepper->restart_J,
+                              ++stepper->jacobian_ids, s->qdd, &report, &failure);
+    if (status == DEP_PASS_FAILED) {
+        return dep_run_pass_error(run, &failure, t);
+    }
+    dep_tally_observe(&run->tally, &report);
+    dep_history_reset(&run->history, t, s->lam, run->cs.nc);
+    return DEP_OK;
+}
+
+/* ---- recording ----------------------------------------------------------------------------- */
+
+/* Record the output times up to t_until: on the step's dense output when `end` is given,
+   else at the current state. */
+int dep_run_record_until(dep_run *run, double t_until, const dep_outcome *end)
+{
+    int first, count = dep_recorder_pending(&run->recorder, t_until, &first), nq = run->nq;
+    const dep_state *start = &run->state;
+    for (int k = first; k < first + count; ++k) {
+        double t = run->recorder.times[k];
+        int status;
+        if (end == NULL) {
+            status = dep_record(&run->recorder, t, start->q, start->qd, start->lam, start->work,
+                                &run->cs);
+        } else {
+            const dep_state *new = &end->state;
+            double s = (t - start->t) / (new->t - start->t);
+            dep_interpolate(end->data, start->t, new->t - start->t, nq, t, run->q, run->qd);
+            dep_dense_components(end->rk, t, 2 * nq, run->nd, run->work);
+            for (int i = 0; i < run->cs.nc; ++i) {
+                run->lam[i] = start->lam[i] + s * (new->lam[i] - start->lam[i]);
+            }
+            status = dep_record(&run->recorder, t, run->q, run->qd, run->lam, run->work, &run->cs);
+        }
+        if (status != DEP_OK) {
+            return dep_plain_error(run->error, status, "out of memory");
+        }
+    }
+    return DEP_OK;
+}
+
+/* ---- steps ------------------------------------------------------------------------------- */
+
+static double first_step(dep_run *run)
+{
+    const dep_state *s = &run->state;
+    int nq = run->nq;
+    dep_stepper_set_rhs(&run->stepper, s->t, 1.0, s->lam, s->lam); /* lambda held */
+    memcpy(run->y, s->q, (size_t)nq * sizeof(double));
+    memcpy(run->y + nq, s->qd, (size_t)nq * sizeof(double));
+    memcpy(run->y + 2 * nq, s->work, (size_t)run->nd * sizeof(double));
+    dep_stepper_derivative(&run->stepper, s, run->dy);
+    return dep_initial_step(dep_stepper_rhs, &run->stepper, s->t, run->y, run->dy, run->ny,
+                            run->settings.tol, run->settings.t_end - s->t, run->scratch);
+}
+
+/* (err_ode, err_lam) in tolerance units (1 = at tolerance). */
+static void step_errors(dep_run *run, const dep_outcome *outcome, double h, double *err_ode,
+                        double *err_lam)
+{
+    const dep_rk_step *rk = outcome->rk;
+    double *scale = run->y, *scratch = run->scratch;
+    dep_weights(rk->y0, rk->y1, run->ny, run->settings.tol, scale);
+    *err_ode = dep_rms(rk->error, scale, run->ny);
+    *err_lam = dep_interpolation_error(h, &run->history, outcome->state.lam, outcome->J1,
+                                       &run->system.mass, scale, run->nq, scratch)
+               * sqrt((double)run->nq / run->ny);
+    if (!isfinite(*err_ode + *err_lam)) {
+        *err_ode = INFINITY;
+        *err_lam = 0.0;
+    }
+}
+
+/* One accepted step from run->state into run->outcome; *h: in the size to try, out the next. */
+static int advance(dep_run *run, double *h)
+{
+    int failures = 0;
+    for (;;) {
+        double remaining = run->settings.t_end - run->state.t, err_ode, err_lam;
+        dep_failure failure;
+        *h = fmin(*h, run->h_cap);
+        *h = *h >= remaining - run->h_min ? remaining : *h;
+        dep_history_predict(&run->history, run->state.t + *h, run->predicted);
+        int status = dep_step(&run->stepper, &run->state, *h, run->predicted, &run->outcome,
+                              &failure);
+        if (status == DEP_PASS_FAILED) {
+            TRACE("step t=%.17g h=%.17g failed %s row %d\n", run->state.t, *h,
+                  dep_stage_names[failure.stage], failure.row);
+            run->tally.failed++;
+            if (++failures >= MAX_FAILURES || *h / 4 < run->h_min) {
+                return dep_run_pass_error(run, &failure, run->state.t + *h);
+            }
+            run->h_cap = *h / 2;
+            *h /= 4;
+            continue;
+        }
+        step_errors(run, &run->outcome, *h, &err_ode, &err_lam);
+        int accepted = err_ode + err_lam <= 1.0;
+        double fac = dep_step_factor(err_lam, err_ode, accepted);
+        TRACE("step t=%.17g h=%.17g ode=%.17g lam=%.17g iterations %d %d %d integrations %d "
+              "%s\n", run->state.t, *h, err_ode, err_lam, run->outcome.reports[0].iterations,
+              run->outcome.reports[1].iterations, run->outcome.reports[2].iterations,
+              run->outcome.integrations, accepted ? "accepted" : "rejected");
+        if (accepted) {
+            dep_tally_accept(&run->tally, run->outcome.reports, *h);
+            run->h_cap = run->h_cap < 1e300 ? run->h_cap * CAP_RELAX : INFINITY;
+            *h *= fmin(fac, dep_convergence_factor(&run->outcome.reports[0]));
+            return DEP_OK;
+        }
+        run->tally.rejected++;
+        *h *= fac;
+        if (*h < run->h_min) {
+            char what[80];
+            snprintf(what, sizeof what, "step size fell below %.1e s", run->h_min);
+            return dep_solver_error(run->error, 1, run->state.t, "step size", NULL, NULL, 0, 0.0,
+                                    what, "the model may be stiff or discontinuous here; try a "
+                                    "looser tol");
+        }
+    }
+}
+
+/* ---- the run ------------------------------------------------------------------------------ */
+
+dep_settings dep_default_settings(const dep_model *model)
+{
+    dep_settings settings = {model->t_end, model->dt_out, model->tol, 1};
+    return settings;
+}
+
+int dep_parameter_index(const dep_model *model, const char *name)
+{
+    for (int i = 0; i < model->np; ++i) {
+        if (strcmp(model->parameter_names[i], name) == 0) {
+            return i;
+        }
+    }
+    return -1;
+}
+
+/* The system, with the mechanism of the hinges' latches, stops and stick-slip friction
+   when the settings ask for it and the model has any. */
+static int setup_system(dep_run *run, const double *params)
+{
+    dep_arena *arena = &run->arena;
+    const dep_model *m = run->model;
+    dep_mechanism *mechanism = NULL;
+    int status;
+    run->p = dep_doubles(arena, (size_t)m->np);
+    if (run->p == NULL) {
+        return dep_plain_error(run->error, DEP_MEMORY_ERROR, "out of memory");
+    }
+    memcpy(run->p, params != NULL ? params : m->parameter_defaults, (size_t)m->np * sizeof(double));
+    if ((status = dep_check_settings(m, run->p, &run->settings, run->error)) != DEP_OK
+        || (status = dep_system_init(&run->system, m, run->p, arena, run->error)) != DEP_OK) {
+        return status;
+    }
+    if (run->settings.mechanics
+        && (dep_mechanism_create(&mechanism, m, run->p, arena) != DEP_OK
+            || (mechanism != NULL
+                && dep_mechanism_bind(mechanism, &run->system,
+                                      dep_constraint_tolerance(run->settings.tol), arena)))) {
+        return dep_plain_error(run->error, DEP_MEMORY_ERROR, "out of memory");
+    }
+    run->nq = m->nq;
+    run->nd = run->system.nd;
+    run->ny = 2 * m->nq + run->nd;
+    return DEP_OK;
+}
+
+static int setup(dep_run *run, const double *params, const dep_event *events, int n_events)
+{
+    dep_arena *arena = &run->arena;
+    const dep_model *m = run->model;
+    int status = setup_system(run, params);
+    dep_mechanism *mechanism = run->system.mechanism;
+    if (status != DEP_OK
+        || (status = dep_watch_init(&run->watch, events, n_events,
+                                    mechanism ? mechanism->events : NULL,
+                                    mechanism ? mechanism->n_events : 0, arena,
+                                    run->error)) != DEP_OK) {
+        return status;
+    }
+    run->n_user_events = n_events;
+    if (dep_constraints_init(&run->cs, &run->system, arena) != DEP_OK
+        || dep_stepper_init(&run->stepper, &run->system, &run->cs, run->settings.tol, arena)
+        || dep_history_init(&run->history, run->cs.capacity, arena)
+        || dep_state_init(&run->state, m->nq, run->cs.capacity, run->nd, arena)
+        || dep_outcome_init(&run->outcome, m->nq, run->cs.capacity, run->nd, arena)
+        || dep_outcome_init(&run->fired, m->nq, run->cs.capacity, run->nd, arena)
+        || dep_loads_init(&run->loads, m, arena) || dep_change_init(&run->change, m->nq, m->nh, arena)) {
+        return dep_plain_error(run->error, DEP_MEMORY_ERROR, "out of memory");
+    }
+    status = dep_recorder_init(&run->recorder, &run->system, &run->settings, run->cs.capacity,
+                               arena);
+    if (status == DEP_SETTINGS_ERROR) {
+        return dep_plain_error(run->error, status, "t_end / dt_out asks for more than 1e8 "
+                               "output times; use a larger dt_out");
+    }
+    size_t capacity = (size_t)run->cs.capacity, nq = (size_t)m->nq, ny = (size_t)run->ny;
+    run->scratch = dep_doubles(arena, capacity * nq + capacity + 3 * ny + 2 * nq);
+    run->dense_J = dep_doubles(arena, capacity * nq);
+    run->dense_lam = dep_doubles(arena, capacity);
+    double **vectors[] = {&run->y, &run->dy, &run->work};
+    for (size_t i = 0; i < 3; ++i) {
+        *vectors[i] = dep_doubles(arena, ny);
+    }
+    double **rows[] = {&run->q, &run->qd, &run->mass_qd, &run->lam, &run->predicted};
+    for (size_t i = 0; i < 5; ++i) {
+        *rows[i] = dep_doubles(arena, capacity + nq);
+    }
+    run->response = dep_bytes(arena, sizeof *run->response);
+    run->response_rows = dep_bytes(arena, DEP_MAX_ADDED * sizeof *run->response_rows);
+    return status != DEP_OK || arena->failed
+        ? dep_plain_error(run->error, DEP_MEMORY_ERROR, "out of memory") : DEP_OK;
+}
+
+/* IterativeRun.run: from the assembled initial state to t_end or a stopping event. */
+static int integrate_run(dep_run *run)
+{
+    double h;
+    int status, stop = 0;
+    run->model->initial_state(run->p, run->q, run->qd);
+    if ((status = dep_run_start(run, run->q, run->qd)) != DEP_OK
+        || (status = dep_run_record_until(run, 0.0, NULL)) != DEP_OK
+        || (status = dep_watch_reset(&run->watch, 0.0, run->state.q, run->state.qd, -1, 0.0,
+                                     dep_run_rows(run, &run->state), run->error)) != DEP_OK) {
+        return status;
+    }
+    h = first_step(run);
+    while (run->settings.t_end - run->state.t > run->h_min && !stop) {
+        if ((status = advance(run, &h)) != DEP_OK
+            || (status = dep_run_after_step(run, &stop)) != DEP_OK) {
+            return status;
+        }
+    }
+    return DEP_OK;
+}
+
+/* The events, the latch hinges and the peak loads into the result (malloc'ed). */
+static int finish_mechanics(dep_run *run, dep_result *result)
+{
+    const dep_mechanism *m = run->system.mechanism;
+    int nh = run->model->nh, failed = 0;
+    result->n_events = run->n_records;
+    result->events = calloc((size_t)(run->n_records ? run->n_records : 1), sizeof *result->events);
+    result->latch_hinges = calloc((size_t)(m != NULL ? m->n_hinges : 1), sizeof(int));
+    result->peaks = calloc((size_t)(nh ? nh : 1), sizeof *result->peaks);
+    failed = result->events == NULL || result->latch_hinges == NULL || result->peaks == NULL;
+    for (int k = 0; !failed && k < run->n_records; ++k) {
+        const dep_event_record *r = &run->records[k];
+        result->events[k] = *r;
+        result->events[k].data = malloc((size_t)(r->n_data ? r->n_data : 1) * sizeof(dep_datum));
+        failed = result->events[k].data == NULL;
+        if (!failed && r->n_data) {
+            memcpy(result->events[k].data, r->data, (size_t)r->n_data * sizeof(dep_datum));
+        }
+    }
+    for (int i = 0; !failed && m != NULL && i < m->n_hinges; ++i) {
+        if (m->hinges[i].has_latch) {
+            result->latch_hinges[result->n_latch_hinges++] = m->hinges[i].index;
+        }
+    }
+    for (int k = 0; !failed && k < nh; ++k) {
+        dep_peak peak = {run->loads.force[k], run->loads.t_force[k], run->loads.torque[k],
+                         run->loads.t_torque[k]};
+        result->peaks[k] = peak;
+    }
+    return failed ? DEP_MEMORY_ERROR : DEP_OK;
+}
+
+static int finish(dep_run *run, dep_result *result)
+{
+    if (dep_recorder_result(&run->recorder, result) != DEP_OK
+        || finish_mechanics(run, result) != DEP_OK) {
+        dep_result_free(result);
+        return dep_plain_error(run->error, DEP_MEMORY_ERROR, "out of memory");
+    }
+    result->tol = run->settings.tol;
+    result->constraint_tol = run->stepper.constraint_tol;
+    result->t_end = run->settings.t_end;
+    result->dt_out = run->settings.dt_out;
+    result->stats = dep_tally_stats(&run->tally, run->stepper.integrations,
+                                    run->stepper.rhs_evaluations);
+    return DEP_OK;
+}
+
+int dep_simulate(const dep_model *model, const double *params, const dep_settings *settings,
+                 const dep_event *events, int n_events, dep_result *result, dep_error *error)
+{
+    dep_run *run = calloc(1, sizeof *run);
+    dep_error_clear(error);
+    memset(result, 0, sizeof *result);
+    if (run == NULL) {
+        return dep_plain_error(error, DEP_MEMORY_ERROR, "out of memory");
+    }
+    if (model->abi != DEP_MODEL_ABI) {
+        free(run);
+        return dep_plain_error(error, DEP_SETTINGS_ERROR, "the model was generated for another "
+                               "version of depsim_model.h; regenerate it");
+    }
+    run->model = model;
+    run->settings = settings != NULL ? *settings : dep_default_settings(model);
+    run->error = error;
+    run->h_min = 64 * DEP_EPS * fmax(1.0, run->settings.t_end);
+    run->h_cap = INFINITY;
+    dep_tally_init(&run->tally);
+    int status = setup(run, params, events, n_events);
+    if (status == DEP_OK) {
+        status = integrate_run(run);
+    }
+    if (status == DEP_OK) {
+        status = finish(run, result);
+    }
+    dep_arena_free(&run->arena);
+    free(run);
+    return status;
+}

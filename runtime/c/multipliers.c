@@ -1,0 +1,327 @@
+/* multipliers.c: the accelerated multiplier iteration, the paper's eq. (6):
+ *
+ *     lambda^m = lambda^{m-1} - alpha * A v^{m-1} / C
+ *
+ * v is one level's constraint error, C that level's sensitivity to lambda_{i+1} (h^2/6, h/2,
+ * 1), A ~ S^-1 with S = Phi_q M^-1 Phi_q^T applied by Jacobi-preconditioned conjugate
+ * gradients (products with Phi_q, M^-1, Phi_q^T only; nothing is factorised). The step is
+ * halved while a trial does not reduce max|v|. Port of multipliers.py.
+ */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "runtime.h"
+
+#define EXPLICIT_BELOW 96 /* form S (nc x nc) once per Jacobian below this many rows */
+#define CG_RTOL 1e-10
+
+const char *const dep_stage_names[3] = {"position", "velocity", "acceleration"};
+
+int dep_multipliers_init(dep_multipliers *mp, const dep_mass *mass, int nq, int capacity,
+                         dep_arena *arena)
+{
+    size_t nc = (size_t)capacity;
+    memset(mp, 0, sizeof *mp);
+    mp->nq = nq;
+    mp->capacity = capacity;
+    mp->mass = mass;
+    mp->schur_id = -1;
+    mp->S = dep_doubles(arena, nc * nc);
+    mp->MinvJT = dep_doubles(arena, nc * (size_t)nq);
+    mp->column = dep_doubles(arena, (size_t)nq);
+    mp->work = dep_doubles(arena, (size_t)nq);
+    double **vectors[] = {&mp->diag, &mp->x, &mp->r, &mp->z, &mp->d, &mp->Sd, &mp->inv_diag,
+                          &mp->step, &mp->trial_lam};
+    for (size_t i = 0; i < sizeof vectors / sizeof *vectors; ++i) {
+        *vectors[i] = dep_doubles(arena, nc);
+    }
+    return arena->failed ? DEP_MEMORY_ERROR : DEP_OK;
+}
+
+int dep_measurement_init(dep_measurement *m, int nq, int capacity, int ny, int own_jacobian,
+                         dep_arena *arena)
+{
+    memset(m, 0, sizeof *m);
+    m->v = dep_doubles(arena, (size_t)capacity);
+    m->x = dep_doubles(arena, (size_t)nq);
+    if (own_jacobian) {
+        m->J_own = dep_doubles(arena, (size_t)capacity * (size_t)nq);
+        m->J = m->J_own;
+    }
+    if (ny > 0 && dep_rk_init(&m->rk, ny, arena) != DEP_OK) {
+        return DEP_MEMORY_ERROR;
+    }
+    return arena->failed ? DEP_MEMORY_ERROR : DEP_OK;
+}
+
+double dep_max_abs(const double *v, int n)
+{
+    double largest = 0.0;
+    for (int i = 0; i < n; ++i) {
+        if (isnan(v[i])) {
+            return v[i];
+        }
+        largest = fmax(largest, fabs(v[i]));
+    }
+    return largest;
+}
+
+/* max_i sum_j |J_ij x_j|: the size of the terms J x sums, which sets its round-off. */
+double dep_product_scale(const double *J, int nc, int nq, const double *x)
+{
+    double largest = 0.0;
+    for (int i = 0; i < nc; ++i) {
+        double sum = 0.0;
+        for (int j = 0; j < nq; ++j) {
+            sum += fabs(J[i * nq + j]) * fabs(x[j]);
+        }
+        if (isnan(sum)) {
+            return sum;
+        }
+        largest = fmax(largest, sum);
+    }
+    return largest;
+}
+
+static double dot(const double *a, const double *b, int n)
+{
+    double sum = 0.0;
+    for (int i = 0; i < n; ++i) {
+        sum += a[i] * b[i];
+    }
+    return sum;
+}
+
+/* ---- S = J M^-1 J^T (Schur) ------------------------------------------------------------ */
+
+static void schur_for(dep_multipliers *mp, const double *J, long long id, int nc)
+{
+    int nq = mp->nq;
+    if (mp->schur_id == id && mp->schur_nc == nc) {
+        return;
+    }
+    mp->schur_id = id;
+    mp->schur_nc = nc;
+    mp->schur_explicit = nc < EXPLICIT_BELOW;
+    for (int b = 0; b < nc; ++b) { /* row b of (M^-1 J^T)^T */
+        dep_mass_solve(mp->mass, J + (size_t)b * (size_t)nq, mp->MinvJT + (size_t)b * (size_t)nq);
+    }
+    for (int a = 0; a < nc; ++a) {
+        const double *Ja = J + (size_t)a * (size_t)nq;
+        if (mp->schur_explicit) {
+            for (int b = 0; b < nc; ++b) {
+                mp->S[a * nc + b] = dot(Ja, mp->MinvJT + (size_t)b * (size_t)nq, nq);
+            }
+            mp->diag[a] = mp->S[a * nc + a];
+        } else {
+            mp->diag[a] = dot(Ja, mp->MinvJT + (size_t)a * (size_t)nq, nq);
+        }
+    }
+}
+
+static void schur_apply(dep_multipliers *mp, const double *J, int nc, const double *x,
+                        double *out)
+{
+    int nq = mp->nq;
+    if (mp->schur_explicit) {
+        for (int a = 0; a < nc; ++a) {
+            out[a] = dot(mp->S + (size_t)a * (size_t)nc, x, nc);
+        }
+        return;
+    }
+    memset(mp->column, 0, (size_t)nq * sizeof *mp->column);
+    for (int a = 0; a < nc; ++a) {
+        for (int j = 0; j < nq; ++j) {
+            mp->column[j] += J[a * nq + j] * x[a];
+        }
+    }
+    dep_mass_solve(mp->mass, mp->column, mp->work);
+    for (int a = 0; a < nc; ++a) {
+        out[a] = dot(J + (size_t)a * (size_t)nq, mp->work, nq);
+    }
+}
+
+/* Solve S x = b by Jacobi-preconditioned conjugate gradients into mp->x; returns 1 when
+   converged. A row whose diagonal of S vanishes stays out of the preconditioner. */
+static int pcg(dep_multipliers *mp, const double *J, int n, const double *b, long long *iterations)
+{
+    int maxiter = 2 * n + 10;
+    double scale = 0.0, *x = mp->x, *r = mp->r, *z = mp->z, *d = mp->d, *Sd = mp->Sd;
+    for (int i = 0; i < n; ++i) {
+        scale = i == 0 ? mp->diag[0] : fmax(scale, mp->diag[i]);
+    }
+    for (int i = 0; i < n; ++i) {
+        int live = mp->diag[i] > 1e-14 * scale;
+        mp->inv_diag[i] = live ? 1.0 / mp->diag[i] : 0.0;
+        x[i] = 0.0;
+        r[i] = b[i];
+        z[i] = d[i] = mp->inv_diag[i] * r[i];
+    }
+    double target2 = CG_RTOL * CG_RTOL * dot(b, b, n), rz = dot(r, z, n);
+    for (int k = 0; k < maxiter; ++k) {
+        if (dot(r, r, n) <= target2) {
+            *iterations += k;
+            return 1;
+        }
+        schur_apply(mp, J, n, d, Sd);
+        double curvature = dot(d, Sd, n);
+        if (!(curvature > 0.0)) {
+            break;
+        }
+        double step = rz / curvature;
+        for (int i = 0; i < n; ++i) {
+            x[i] += step * d[i];
+            r[i] -= step * Sd[i];
+            z[i] = mp->inv_diag[i] * r[i];
+        }
+        double rz_new = dot(r, z, n), ratio = rz > 0 ? rz_new / rz : 0.0;
+        for (int i = 0; i < n; ++i) {
+            d[i] = rz > 0 ? z[i] + ratio * d[i] : z[i];
+        }
+        rz = rz_new;
+    }
+    *iterations += maxiter;
+    return dot(r, r, n) <= target2;
+}
+
+/* ---- the iteration (6) ------------------------------------------------------------------ */
+
+static int fail(int stage, const dep_measurement *current, int nc, const char *reason,
+                dep_failure *failure)
+{
+    int row = 0;
+    for (int i = 0; i < nc; ++i) { /* np.argmax of |v|: the first NaN, else the largest */
+        if (isnan(current->v[i])) {
+            row = i;
+            break;
+        }
+        row = fabs(current->v[i]) > fabs(current->v[row]) ? i : row;
+    }
+    failure->stage = stage;
+    failure->row = row;
+    failure->residual = fabs(current->v[row]);
+    failure->scale = current->scale;
+    dep_copy_text(failure->reason, sizeof failure->reason, reason);
+    return DEP_PASS_FAILED;
+}
+
+static void report_error(dep_pass_report *report, double error)
+{
+    if (report->n_errors < DEP_MAX_ITERATIONS + 1) {
+        report->errors[report->n_errors++] = error;
+    }
+}
+
+/* Iterate (6) from lam (nc, updated in place) until max|v| <= tol * max(1, scale). The two
+   slots hold the current and trial measurements; *final points at the last accepted one. */
+int dep_iterate_multipliers(dep_multipliers *mp, int stage, double *lam, int nc,
+                            dep_measure_function measure, void *context, double C, double tol,
+                            dep_measurement *slots[2], dep_measurement **final,
+                            dep_pass_report *report, dep_failure *failure)
+{
+    dep_measurement *current = slots[0], *trial = slots[1];
+    char reason[120];
+    memset(report, 0, sizeof *report);
+    report->stage = stage;
+    measure(context, lam, current);
+    double error = dep_max_abs(current->v, nc);
+    report_error(report, error);
+    double limit = tol * fmax(1.0, current->scale);
+    while (!(error <= limit)) {
+        if (!isfinite(error)) {
+            return fail(stage, current, nc, "the state or the forces became non-finite", failure);
+        }
+        if (report->iterations >= DEP_MAX_ITERATIONS) {
+            snprintf(reason, sizeof reason, "not below %.2e after %d iterations", limit,
+                     DEP_MAX_ITERATIONS);
+            return fail(stage, current, nc, reason, failure);
+        }
+        schur_for(mp, current->J, current->jacobian_id, nc);
+        if (!pcg(mp, current->J, nc, current->v, &report->cg_iterations)) {
+            return fail(stage, current, nc, "the multiplier system S = Phi_q M^-1 Phi_q^T is "
+                        "singular or inconsistent here (conjugate gradients did not converge)",
+                        failure);
+        }
+        double trial_error = 0.0;
+        int decreased = 0;
+        for (int i = 0; i < nc; ++i) {
+            mp->step[i] = 1.0 * mp->x[i] / C;
+        }
+        for (int halving = 0; halving <= DEP_MAX_HALVINGS && !decreased; ++halving) {
+            if (halving > 0) {
+                for (int i = 0; i < nc; ++i) {
+                    mp->step[i] = 0.5 * mp->step[i];
+                }
+            }
+            for (int i = 0; i < nc; ++i) {
+                mp->trial_lam[i] = lam[i] - mp->step[i];
+            }
+            measure(context, mp->trial_lam, trial);
+            trial_error = dep_max_abs(trial->v, nc);
+            decreased = trial_error < error;
+        }
+        if (!decreased) {
+            return fail(stage, current, nc, "the error stopped decreasing", failure);
+        }
+        memcpy(lam, mp->trial_lam, (size_t)nc * sizeof *lam);
+        dep_measurement *swap = current;
+        current = trial;
+        trial = swap;
+        error = trial_error;
+        report->iterations++;
+        report_error(report, error);
+        limit = tol * fmax(1.0, current->scale);
+    }
+    *final = current;
+    return DEP_OK;
+}
+
+/* ---- plastic impact: the M-orthogonal projection of qd onto the velocity constraints ---- */
+
+typedef struct projection {
+    dep_multipliers *mp;
+    const double *J, *qd, *phi_t;
+    int nc;
+    long long jacobian_id;
+} projection;
+
+static void measure_projection(void *context, const double *mu, dep_measurement *out)
+{
+    projection *pr = context;
+    int nq = pr->mp->nq, nc = pr->nc;
+    double *column = pr->mp->column, *solved = pr->mp->work;
+    memset(column, 0, (size_t)nq * sizeof *column);
+    for (int a = 0; a < nc; ++a) { /* J^T mu */
+        for (int j = 0; j < nq; ++j) {
+            column[j] += pr->J[a * nq + j] * mu[a];
+        }
+    }
+    dep_mass_solve(pr->mp->mass, column, solved);
+    for (int j = 0; j < nq; ++j) {
+        out->x[j] = pr->qd[j] - solved[j];
+    }
+    for (int a = 0; a < nc; ++a) {
+        out->v[a] = -dot(pr->J + (size_t)a * (size_t)nq, out->x, nq) - pr->phi_t[a];
+    }
+    out->J = pr->J;
+    out->jacobian_id = pr->jacobian_id;
+    out->scale = dep_product_scale(pr->J, nc, nq, out->x);
+}
+
+/* qd+ = qd - M^-1 J^T mu with J qd+ + phi_t = 0 by the iteration (6) with C = 1. */
+int dep_project_velocity(dep_multipliers *mp, const double *J, long long jacobian_id, int nc,
+                         const double *qd, const double *phi_t, double tol, double *qd_new,
+                         double *mu, dep_measurement *slots[2], dep_pass_report *report,
+                         dep_failure *failure)
+{
+    projection pr = {mp, J, qd, phi_t, nc, jacobian_id};
+    dep_measurement *final = NULL;
+    memset(mu, 0, (size_t)nc * sizeof *mu);
+    int status = dep_iterate_multipliers(mp, DEP_VELOCITY, mu, nc, measure_projection, &pr, 1.0,
+                                         tol, slots, &final, report, failure);
+    if (status == DEP_OK) {
+        memcpy(qd_new, final->x, (size_t)mp->nq * sizeof *qd_new);
+    }
+    return status;
+}
