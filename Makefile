@@ -1,5 +1,5 @@
 # depsim: two commands set up a fresh machine.
-#   make demo   create .venv, install, compile and run examples/intelsat5.dep
+#   make demo   create .venv, install, compile examples/intelsat5.dep to C and run it
 #   make test   create .venv, install, run the test suite
 PYTHON ?= python3
 VENV   := .venv
@@ -19,7 +19,7 @@ install: $(STAMP)
 demo: $(STAMP)
 	mkdir -p results
 	$(BIN)/depsim check examples/intelsat5.dep
-	$(BIN)/depsim run examples/intelsat5.dep -o results/intelsat5.csv \
+	$(BIN)/depsim run examples/intelsat5.dep --target c -o results/intelsat5.csv \
 		--summary results/intelsat5.json --plot results/intelsat5.png
 
 # pytest exits 5 when it collects nothing: an empty suite is a failure, not a pass.

@@ -104,8 +104,9 @@ class Simulator:
         self.defaults = np.array(module.PARAMETER_DEFAULTS, dtype=float)
 
     def parameters(self, set: Mapping[str, float | str] | None = None) -> np.ndarray:
-        """The parameter vector: defaults with `set` applied. Values are SI floats or text with
-        units ("1.5 N*m"), checked against the parameter's dimension."""
+        """The parameter vector: defaults with `set` applied. Values are SI numbers (floats or
+        text such as "0.7") or text with units ("1.5 N*m"), checked against the parameter's
+        dimension."""
         p = self.defaults.copy()
         by_name = {m.name: i for i, m in enumerate(self.model.ir.params)}
         derived = {d.name: d for d in self.model.ir.derived}
@@ -148,7 +149,8 @@ def _parameter_value(param: ir.Param, value: float | str) -> float:
             number, dim = parse_quantity(value)
         except ValueError as exc:
             raise UsageError(f"bad value for '{param.name}': {exc}") from None
-        if dim != param.dim and not (dim == ir.Dim() and param.dim == ir.Dim(angle=1)):
+        # a bare number is the SI value; a number with a unit must have the right dimension
+        if dim != param.dim and dim != ir.Dim():
             raise UsageError(f"'{param.name}' needs a value in {param.unit or 'no unit'}; "
                              f"'{value}' has another dimension")
         value = number
