@@ -40,18 +40,27 @@ def main(argv=None) -> int:
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--batch-size", type=int, default=None)
     parser.add_argument("--model", default=str(ROOT / "examples" / "intelsat5.dep"))
+    parser.add_argument("--target", choices=["c", "numpy"], default="c",
+                        help="c: the compiled shared library (default); numpy")
     parser.add_argument("--json", metavar="PATH", help="also write the numbers as JSON")
     args = parser.parse_args(argv)
 
-    from depsim.codegen import compile_numpy
+    from depsim.codegen import compile_c, compile_numpy
     from depsim.dsl import load_model
-    from depsim.runtime import simulate
+    from depsim.runtime import clib, simulate as simulate_numpy
+    from depsim.runtime.ctarget import build_library
     from depsim.runtime.sweep import Study, default_workers, load_module, make_design, run_study
     from depsim.runtime.sweep.metrics import evaluate
 
     workers = args.workers or default_workers()
     with tempfile.TemporaryDirectory() as tmp:
-        module_path = compile_numpy(load_model(args.model), Path(tmp) / "generated")
+        model = load_model(args.model)
+        if args.target == "c":
+            module_path = build_library(compile_c(model, Path(tmp) / "generated"))
+            simulate = clib.simulate
+        else:
+            module_path = compile_numpy(model, Path(tmp) / "generated")
+            simulate = simulate_numpy
         module = load_module(module_path)
         names = tuple(module.PARAMETERS)
         samples = [s for s in SAMPLES if s.split("=")[0] in names]
@@ -61,12 +70,12 @@ def main(argv=None) -> int:
         first = simulate(module, design.matrix[0], t_end=args.t_end)
         single = time.perf_counter() - start
         first_metrics, _ = evaluate(first, module, None)
-        report = {"model": module.MODEL_NAME, "runs": args.runs, "workers": workers,
+        report = {"model": module.MODEL_NAME, "target": args.target, "runs": args.runs, "workers": workers,
                   "cores": os.cpu_count(), "t_end": args.t_end, "single_run_s": single,
                   "backends": {}}
-        print(f"{module.MODEL_NAME}: one run in this process {single:.3f} s "
+        print(f"{module.MODEL_NAME} ({args.target}): one run in this process {single:.3f} s "
               f"(serial estimate {args.runs * single:.1f} s for {args.runs} runs)")
-        study = Study(module_path, design, t_end=args.t_end)
+        study = Study(module_path, design, t_end=args.t_end, simulate=simulate)
         for backend in [b.strip() for b in args.backends.split(",") if b.strip()]:
             out = Path(tmp) / f"{backend}.nc"
             if backend == "pool":
