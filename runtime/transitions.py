@@ -189,14 +189,7 @@ def stick(mechanism, hinge, kind, ctx: Context) -> list[str]:
         return []
     name = f"{hinge.name}.stick"
     if hinge.stuck:
-        lam = ctx.multipliers()[name]
-        ctx.remove(name)
-        hinge.stuck = False
-        hinge.direction = friction.slip_direction(lam, hinge.direction)
-        ctx.starting.add(name)
-        ctx.record(f"{hinge.name}.slip", {"hinge": hinge.name, "direction": hinge.direction,
-                                          "torque": -lam})
-        return []
+        return _start_slip(ctx, hinge, name, ctx.multipliers()[name])
     theta = ctx.angle(hinge)
     ctx.add_lock(hinge, theta, "stick")
     hinge.stuck = True  # the trial: friction is carried by the lock row's multiplier
@@ -204,13 +197,7 @@ def stick(mechanism, hinge, kind, ctx: Context) -> list[str]:
     if friction.holds(lam, hinge.static):
         ctx.record(name, {"hinge": hinge.name, "angle": theta, "torque": -lam})
         return []
-    ctx.remove(name)
-    hinge.stuck = False
-    hinge.direction = friction.slip_direction(lam, hinge.direction)
-    ctx.starting.add(name)
-    ctx.record(f"{hinge.name}.slip", {"hinge": hinge.name, "direction": hinge.direction,
-                                      "torque": -lam})
-    return []
+    return _start_slip(ctx, hinge, name, lam)
 
 
 TRANSITIONS = {"latch": latch, "stop_min": stop, "stop_max": stop, "stick": stick}
@@ -263,3 +250,14 @@ def project(mechanism, ctx: Context) -> None:
     mass = mechanism.system.mass
     ctx.q = latches.project_positions(cs, mass, ctx.q, ctx.t, mechanism.tol)
     ctx.qd = latches.project_velocities(cs, mass, ctx.q, ctx.qd, ctx.t, mechanism.tol)
+
+
+def _start_slip(ctx, hinge, name: str, lam: float) -> list:
+    """Release a stuck hinge: drop its stick row and slide against the holding torque."""
+    ctx.remove(name)
+    hinge.stuck = False
+    hinge.direction = friction.slip_direction(lam, hinge.direction)
+    ctx.starting.add(name)
+    ctx.record(f"{hinge.name}.slip", {"hinge": hinge.name, "direction": hinge.direction,
+                                      "torque": -lam})
+    return []

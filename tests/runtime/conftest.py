@@ -2,6 +2,8 @@
 
 import pytest
 
+from depsim.codegen import compile_numpy, load_generated
+from depsim.dsl import load_model
 from runtime_helpers import load_handmade
 
 
@@ -13,3 +15,20 @@ def pendulum():
 @pytest.fixture(scope="session")
 def slider_crank():
     return load_handmade("slider_crank")
+
+
+@pytest.fixture(scope="module")
+def build(tmp_path_factory):
+    """build(text) -> the generated NumPy module of a .dep model given as text (cached)."""
+    folder = tmp_path_factory.mktemp("models")
+    cache = {}
+
+    def get(text):
+        if text not in cache:
+            source = folder / f"model{len(cache)}.dep"
+            source.write_text(text)
+            cache[text] = load_generated(compile_numpy(load_model(source),
+                                                       folder / f"out{len(cache)}"))
+        return cache[text]
+
+    return get

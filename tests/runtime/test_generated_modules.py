@@ -13,8 +13,8 @@ EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
 @pytest.fixture(scope="module")
 def generated(tmp_path_factory):
-    codegen = pytest.importorskip("depsim.codegen")
-    dsl = pytest.importorskip("depsim.dsl")
+    import depsim.codegen as codegen
+    import depsim.dsl as dsl
     if not hasattr(codegen, "compile_numpy"):
         pytest.skip("depsim.codegen.compile_numpy is not available yet")
     out = tmp_path_factory.mktemp("generated")

@@ -47,23 +47,6 @@ output omega = h.rate
 """
 
 
-@pytest.fixture(scope="module")
-def build(tmp_path_factory):
-    codegen = pytest.importorskip("depsim.codegen")
-    dsl = pytest.importorskip("depsim.dsl")
-    folder = tmp_path_factory.mktemp("latch_models")
-    cache = {}
-
-    def get(text):
-        if text not in cache:
-            source = folder / f"model{len(cache)}.dep"
-            source.write_text(text)
-            cache[text] = codegen.load_generated(codegen.compile_numpy(
-                dsl.load_model(source), folder / f"out{len(cache)}"))
-        return cache[text]
-
-    return get
-
 
 def two_bar_reference():
     """Angular momentum H about the ground pin and kinetic energy T are conserved until the

@@ -26,8 +26,8 @@ J_O = 0.25 + 3 * 0.5 ** 2
 
 @pytest.fixture(scope="module")
 def build(tmp_path_factory):
-    codegen = pytest.importorskip("depsim.codegen")
-    dsl = pytest.importorskip("depsim.dsl")
+    import depsim.codegen as codegen
+    import depsim.dsl as dsl
     folder = tmp_path_factory.mktemp("stick_models")
 
     def get(**values):
@@ -113,8 +113,8 @@ def test_stick_slip_reversals_and_final_stick_match_the_closed_form(build):
 def test_without_static_friction_the_tanh_law_stays(build, tmp_path):
     """No `static_friction`: no stick-slip events, the module's regularised friction acts
     (a preload below the friction creeps at about slip_rate * atanh(P / F))."""
-    codegen = pytest.importorskip("depsim.codegen")
-    dsl = pytest.importorskip("depsim.dsl")
+    import depsim.codegen as codegen
+    import depsim.dsl as dsl
     text = MODEL.replace("    static_friction = {Fs} N*m\n", "").format(k=0.0, P=0.5, Fk=0.6,
                                                                           T=2.0)
     (tmp_path / "tanh.dep").write_text(text)

@@ -319,7 +319,7 @@ def test_progress_bar_only_on_a_terminal():
 
 @pytest.fixture(scope="module")
 def dask_client():
-    distributed = pytest.importorskip("distributed")
+    import distributed
     import logging
     cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                        dashboard_address=None, silence_logs=logging.ERROR)
@@ -369,7 +369,7 @@ HAND_MADE_PENDULUM = os.path.join(os.path.dirname(__file__), "models", "pendulum
 
 
 def real_simulate():
-    runtime = pytest.importorskip("depsim.runtime")
+    import depsim.runtime as runtime
     if not hasattr(runtime, "simulate"):
         pytest.skip("depsim.runtime.simulate is not there yet")
     return runtime.simulate
