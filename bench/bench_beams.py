@@ -1,0 +1,209 @@
+"""The two-link flexible pendulum (MODELS.md M2) at 2, 4, 8, 16 elements per link: cost of the
+iterative integrator, energy conservation, and mesh convergence of chord2 and tip2.
+
+    .venv/bin/python bench/bench_beams.py [--span 0.1] [--elements 2,4,8,16] [--tol 1e-8]
+                                          [--energy-span 5]
+
+Every run goes through the real pipeline: examples/two_link_flex.dep -> Model.with_elements ->
+compile(target="numpy") -> the iterative integrator (depsim.runtime.simulate).
+
+1. Cost: wall time per simulated second, accepted / rejected / retried steps, step sizes and
+   the mean iterations of (6) per step of each pass. The links' axial modes (omega_max =
+   6.5e4 rad/s at 2 elements, growing like n; docs/beams.md) bound the explicit step, so a
+   simulated second is expensive, and more so with more elements.
+2. Energy: kinetic + gravity + elastic (the generated `energy`) is constant for this undamped
+   model; the drift max |E(t) - E(0)| is printed in J and relative to the largest kinetic energy
+   of the run. `--energy-span 5` also integrates the 2-element model over the seed's full 5 s.
+3. Convergence: chord2 and tip2 on the common output grid for each element count; the table
+   gives their values at the end of the span and the largest difference over the span to the
+   next coarser mesh (they should shrink as the mesh is refined), raw and after a moving
+   average over one period of link 2's first bending mode. The raw differences are those of
+   the high-frequency bending waves the release excites, whose phase drifts with the mesh; the
+   smoothed ones are those of the swing and the quasi-static bending (the seed's Figures 4, 5).
+4. `--cantilever N`: a clamped beam (EI = 100 N m^2, 1 kg/m, L = 1 m) with N elements
+   released in gravity, integrated over 2.5 periods; its first bending frequency, fitted to
+   the tip deflection, against beam theory (tests/codegen/test_beam_system.py does this with
+   four elements).
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from scipy import optimize
+
+import depsim
+
+ROOT = Path(__file__).resolve().parents[1]
+MODEL = ROOT / "examples" / "two_link_flex.dep"
+OUTPUTS = ("chord2", "tip2")
+# one period of link 2's first bending mode in M2 (about 283 rad/s): the window of the
+# smoothed differences, which leave out the bending waves the release excites
+SMOOTHING = 2 * np.pi / 283.0  # s
+CANTILEVER_ROOTS = (1.8751040687119611, 4.6940911329741746)  # cos b cosh b = -1
+CANTILEVER = """\
+model cantilever
+gravity = (0, -9.81) m/s^2
+beam arm {{ length = 1 m; EI = 100 N*m^2; EA = 1e4 N; mass_per_length = 1 kg/m; elements = {n} }}
+slider clamp joins ground.origin to arm.a {{ axis = (1, 0) }}
+simulate {{ t_end = 0.45 s; tol = 1e-6; dt_out = 0.001 s }}
+output deflection = arm.tip_deflection
+"""
+
+
+@dataclass(frozen=True)
+class Run:
+    """One run of M2 with `elements` elements per link."""
+
+    elements: int
+    span: float
+    compile_seconds: float
+    run_seconds: float
+    result: object  # depsim.runtime.Result
+
+    @property
+    def seconds_per_second(self) -> float:
+        return self.run_seconds / self.span
+
+    def energy_drift(self) -> tuple[float, float]:
+        """(max |E(t) - E(0)| in J, the same over the largest kinetic energy of the run)."""
+        total = self.result.total_energy()
+        drift = float(np.max(np.abs(total - total[0])))
+        kinetic = self.result.energy[:, self.result.energy_names.index("kinetic")]
+        return drift, drift / float(np.max(kinetic))
+
+
+def run_m2(elements: int, span: float, tol: float, dt_out: float, out_dir: Path) -> Run:
+    """Compile M2 with `elements` per link into out_dir and integrate it over [0, span] s."""
+    start = time.perf_counter()
+    model = depsim.load(MODEL).with_elements({"link1": elements, "link2": elements})
+    sim = model.compile(target="numpy", out_dir=out_dir / f"n{elements}")
+    compiled = time.perf_counter()
+    result = sim.run(t_end=span, dt_out=dt_out, tol=tol)
+    done = time.perf_counter()
+    return Run(elements, span, compiled - start, done - compiled, result)
+
+
+def cost_table(runs: list[Run]) -> str:
+    lines = ["| elements/link | NQ | compile s | run s | s per simulated s | accepted "
+             "| rejected | retried | h min..max (s) | iterations/step pos, vel, acc "
+             "| energy drift J (rel. KE) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for run in runs:
+        s = run.result.stats
+        drift, relative = run.energy_drift()
+        lines.append(
+            f"| {run.elements} | {len(run.result.coordinate_names)} | {run.compile_seconds:.1f} "
+            f"| {run.run_seconds:.1f} | {run.seconds_per_second:.0f} | {s.accepted_steps} "
+            f"| {s.rejected_steps} | {s.failed_steps} | {s.min_step:.1e}..{s.max_step:.1e} "
+            f"| {s.position.mean:.2f}, {s.velocity.mean:.2f}, {s.acceleration.mean:.2f} "
+            f"| {drift:.1e} ({relative:.1e}) |")
+    return "\n".join(lines)
+
+
+def moving_average(values: np.ndarray, dt: float) -> np.ndarray | None:
+    """The mean over SMOOTHING seconds around each sample (the ends are cut off); None when
+    the span is shorter than two windows."""
+    window = max(1, int(round(SMOOTHING / dt)))
+    if 2 * window > len(values):
+        return None
+    return np.convolve(values, np.ones(window) / window, mode="valid")
+
+
+def convergence_table(runs: list[Run]) -> str:
+    """Values at the end of the span and, for each mesh, the largest difference to the next
+    coarser one over the span: raw, and of the moving averages over SMOOTHING."""
+    lines = ["| elements/link | chord2(t_end) rad | max diff | smoothed | tip2(t_end) m "
+             "| max diff | smoothed |", "|---|---|---|---|---|---|---|"]
+    dt = runs[0].result.dt_out
+    for k, run in enumerate(runs):
+        cells = [str(run.elements)]
+        for name in OUTPUTS:
+            values = run.result.output(name)
+            cells.append(f"{values[-1]:.8f}" if name == "chord2" else f"{values[-1]:.6e}")
+            if k == 0:
+                cells += ["", ""]
+                continue
+            coarse = runs[k - 1].result.output(name)
+            fine_mean, coarse_mean = moving_average(values, dt), moving_average(coarse, dt)
+            smoothed = ("span too short" if fine_mean is None else
+                        f"{np.max(np.abs(fine_mean - coarse_mean)):.2e}")
+            cells += [f"{np.max(np.abs(values - coarse)):.2e}", smoothed]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def cantilever_frequency(elements: int, out_dir: Path) -> str:
+    """The run-based first bending frequency of a clamped beam with `elements` elements."""
+    path = out_dir / "cantilever.dep"
+    path.write_text(CANTILEVER.format(n=elements), encoding="utf-8")
+    sim = depsim.load(path).compile(target="numpy", out_dir=out_dir / "cantilever")
+    start = time.perf_counter()
+    result = sim.run()
+    seconds = time.perf_counter() - start
+    t, y = result.times, result.output("deflection")
+
+    def misfit(omegas):  # y = c + sum a cos(w t) + b sin(w t); amplitudes by linear lstsq
+        basis = np.column_stack([np.ones_like(t)] + [f(w * t) for w in omegas
+                                                     for f in (np.cos, np.sin)])
+        return basis @ np.linalg.lstsq(basis, y, rcond=None)[0] - y
+
+    exact = CANTILEVER_ROOTS[0] ** 2 * np.sqrt(100.0)
+    ratio = (CANTILEVER_ROOTS[1] / CANTILEVER_ROOTS[0]) ** 2
+    omega = optimize.least_squares(misfit, [exact, exact * ratio], x_scale=[1, ratio]).x[0]
+    return (f"cantilever, {elements} elements, 0.45 s: omega_1 = {omega:.5f} rad/s, beam theory "
+            f"{exact:.5f}, error {omega / exact - 1:+.1e}; {seconds:.0f} s wall, "
+            f"{result.stats.accepted_steps} steps")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--span", type=float, default=0.1, help="simulated time (s)")
+    parser.add_argument("--elements", default="2,4,8,16", help="element counts per link")
+    parser.add_argument("--tol", type=float, default=1e-8, help="integration tolerance")
+    parser.add_argument("--dt-out", type=float, default=None,
+                        help="output interval (s), default span/100")
+    parser.add_argument("--energy-span", type=float, default=None,
+                        help="also run 2 elements over this span (s) for the energy drift")
+    parser.add_argument("--cantilever", type=int, default=8, metavar="N",
+                        help="elements of the cantilever frequency run (0: skip)")
+    parser.add_argument("--save", metavar="NPZ", help="write times, chord2, tip2 and the "
+                        "total energy of each run to this .npz file")
+    args = parser.parse_args()
+    counts = [int(n) for n in args.elements.split(",")]
+    dt_out = args.dt_out or args.span / 100
+    with tempfile.TemporaryDirectory() as tmp:
+        runs = []
+        for n in counts:
+            runs.append(run_m2(n, args.span, args.tol, dt_out, Path(tmp)))
+            print(f"  {n} elements/link: {runs[-1].run_seconds:.1f} s", flush=True)
+        print(f"\nM2 over {args.span} s, tol {args.tol:g}, outputs every {dt_out:g} s\n")
+        print(cost_table(runs))
+        print()
+        print(convergence_table(runs))
+        if args.save:
+            np.savez(args.save, **{f"{key}_{run.elements}": value for run in runs
+                                   for key, value in (("t", run.result.times),
+                                                      ("chord2", run.result.output("chord2")),
+                                                      ("tip2", run.result.output("tip2")),
+                                                      ("energy", run.result.total_energy()))})
+        if args.energy_span:
+            long = run_m2(2, args.energy_span, args.tol, 0.005, Path(tmp))
+            drift, relative = long.energy_drift()
+            print(f"\n2 elements/link over {args.energy_span} s: {long.run_seconds:.0f} s wall "
+                  f"({long.seconds_per_second:.0f} s per simulated s), "
+                  f"{long.result.stats.accepted_steps} steps; energy drift {drift:.2e} J "
+                  f"= {relative:.2e} of the largest kinetic energy; chord2(t_end) = "
+                  f"{long.result.output('chord2')[-1]:.6f} rad, tip2(t_end) = "
+                  f"{long.result.output('tip2')[-1]:.4e} m")
+        if args.cantilever:
+            print("\n" + cantilever_frequency(args.cantilever, Path(tmp)))
+
+
+if __name__ == "__main__":
+    main()
