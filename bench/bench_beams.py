@@ -5,7 +5,7 @@ iterative integrator, energy conservation, and mesh convergence of chord2 and ti
                                           [--energy-span 5]
 
 Every run goes through the real pipeline: examples/two_link_flex.dep -> Model.with_elements ->
-compile(target="numpy") -> the iterative integrator (depsim.runtime.simulate).
+compile(target="numpy" or, with --target c, "c") -> the iterative integrator.
 
 1. Cost: wall time per simulated second, accepted / rejected / retried steps, step sizes and
    the mean iterations of (6) per step of each pass. The links' axial modes (omega_max =
@@ -78,11 +78,12 @@ class Run:
         return drift, drift / float(np.max(kinetic))
 
 
-def run_m2(elements: int, span: float, tol: float, dt_out: float, out_dir: Path) -> Run:
+def run_m2(elements: int, span: float, tol: float, dt_out: float, out_dir: Path,
+           target: str = "numpy") -> Run:
     """Compile M2 with `elements` per link into out_dir and integrate it over [0, span] s."""
     start = time.perf_counter()
     model = depsim.load(MODEL).with_elements({"link1": elements, "link2": elements})
-    sim = model.compile(target="numpy", out_dir=out_dir / f"n{elements}")
+    sim = model.compile(target=target, out_dir=out_dir / f"{target}{elements}")
     compiled = time.perf_counter()
     result = sim.run(t_end=span, dt_out=dt_out, tol=tol)
     done = time.perf_counter()
@@ -172,6 +173,8 @@ def main() -> None:
                         help="also run 2 elements over this span (s) for the energy drift")
     parser.add_argument("--cantilever", type=int, default=8, metavar="N",
                         help="elements of the cantilever frequency run (0: skip)")
+    parser.add_argument("--target", choices=["numpy", "c"], default="numpy",
+                        help="backend (c: the compiled library, about 60x faster)")
     parser.add_argument("--save", metavar="NPZ", help="write times, chord2, tip2 and the "
                         "total energy of each run to this .npz file")
     args = parser.parse_args()
@@ -180,7 +183,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         runs = []
         for n in counts:
-            runs.append(run_m2(n, args.span, args.tol, dt_out, Path(tmp)))
+            runs.append(run_m2(n, args.span, args.tol, dt_out, Path(tmp), args.target))
             print(f"  {n} elements/link: {runs[-1].run_seconds:.1f} s", flush=True)
         print(f"\nM2 over {args.span} s, tol {args.tol:g}, outputs every {dt_out:g} s\n")
         print(cost_table(runs))
@@ -193,7 +196,7 @@ def main() -> None:
                                                       ("tip2", run.result.output("tip2")),
                                                       ("energy", run.result.total_energy()))})
         if args.energy_span:
-            long = run_m2(2, args.energy_span, args.tol, 0.005, Path(tmp))
+            long = run_m2(2, args.energy_span, args.tol, 0.005, Path(tmp), args.target)
             drift, relative = long.energy_drift()
             print(f"\n2 elements/link over {args.energy_span} s: {long.run_seconds:.0f} s wall "
                   f"({long.seconds_per_second:.0f} s per simulated s), "
