@@ -44,24 +44,15 @@ def _report(exc: Exception) -> int | None:
     if isinstance(exc, ModelError):
         print(format_diagnostics(exc.diagnostics, exc.source), file=sys.stderr, end="")
         return EXIT_MODEL
-    if isinstance(exc, CodegenError):
-        print(f"depsim: error: {exc}", file=sys.stderr)
-        return EXIT_MODEL
-    if isinstance(exc, UsageError):
-        print(f"depsim: error: {exc}", file=sys.stderr)
-        return EXIT_USAGE
-    if isinstance(exc, CBuildError):
-        print(f"depsim: error: {exc}", file=sys.stderr)
-        return EXIT_USAGE
-    if isinstance(exc, (SweepSpecError, CheckpointError)):
-        print(f"depsim: error: {exc}", file=sys.stderr)
-        return EXIT_USAGE
-    if isinstance(exc, StudyError):
-        print(f"depsim: study stopped: {exc}", file=sys.stderr)
-        return EXIT_SOLVER
-    if isinstance(exc, SolverError):
-        print(f"depsim: solver failure: {exc}", file=sys.stderr)
-        return EXIT_SOLVER
+    # (exception types, message prefix, exit code): everything else the user can cause
+    outcomes = [((CodegenError,), "error", EXIT_MODEL),
+                ((UsageError, CBuildError, SweepSpecError, CheckpointError), "error", EXIT_USAGE),
+                ((StudyError,), "study stopped", EXIT_SOLVER),
+                ((SolverError,), "solver failure", EXIT_SOLVER)]
+    for types, prefix, code in outcomes:
+        if isinstance(exc, types):
+            print(f"depsim: {prefix}: {exc}", file=sys.stderr)
+            return code
     return None
 
 
