@@ -40,9 +40,15 @@ output chord2 = link2.phi + 90 deg
 """
 
 
-def compile_m2(out_dir, elements: int):
+def compile_m2(out_dir, elements: int, target: str = "numpy"):
     model = depsim.load(MODEL).with_elements({"link1": elements, "link2": elements})
-    return model.compile(target="numpy", out_dir=out_dir)
+    return model.compile(target=target, out_dir=out_dir)
+
+
+def rigid_pendulum(tmp_path):
+    path = tmp_path / "two_link_rigid.dep"
+    path.write_text(RIGID, encoding="utf-8")
+    return depsim.load(path).compile(out_dir=tmp_path / "rigid")
 
 
 @pytest.fixture(scope="module")
@@ -150,15 +156,34 @@ def test_chord2_follows_the_rigid_double_pendulum(m2_runs, tmp_path):
     """With EI = 1000 N m^2 the links hardly bend (tip2 ~ 1e-4 m), so link 2's chord follows
     the rigid two-bar pendulum: measured 7.2e-5 rad apart over 0.5 s, while chord2 itself
     moves by 0.13 rad (and tip2 reaches 3.1e-4 m)."""
-    path = tmp_path / "two_link_rigid.dep"
-    path.write_text(RIGID, encoding="utf-8")
-    rigid = depsim.load(path).compile(out_dir=tmp_path / "gen").run()
+    rigid = rigid_pendulum(tmp_path).run()
     flexible = m2_runs[2]
     assert np.allclose(rigid.times, flexible.times)
     chord2 = flexible.output("chord2")
     assert np.ptp(chord2) > 0.1
     assert np.max(np.abs(chord2 - rigid.output("chord2"))) < 2e-4
     assert 5e-5 < np.max(np.abs(flexible.output("tip2"))) < 1e-3
+
+
+def test_the_seeds_five_seconds_with_the_c_target(m2_runs, tmp_path):
+    """The seed's full 0..5 s (its Figures 4 and 5) at the model's settings, with the C target
+    (about 7 s; NumPy takes 8-10 minutes). Measured: energy drift 8.2e-7 J = 8.9e-6 of the
+    largest kinetic energy (9.2e-2 J), chord2 within 6.2e-4 rad of the rigid pendulum, tip2 up
+    to 3.1e-4 m; the first 0.5 s equal the NumPy run's to 3e-13 (same steps)."""
+    result = compile_m2(tmp_path / "c", 2, target="c").run()
+    assert result.times[-1] == 5.0
+    total, kinetic = result.total_energy(), result.energy[:, 0]
+    assert np.max(np.abs(total - total[0])) < 1e-4 * kinetic.max()
+    chord2, tip2 = result.output("chord2"), result.output("tip2")
+    rigid = rigid_pendulum(tmp_path).run(t_end=5.0, dt_out=result.dt_out)
+    assert np.max(np.abs(chord2 - rigid.output("chord2"))) < 2e-3
+    assert np.max(np.abs(chord2)) < PHI2 + 1e-5  # it cannot swing higher than released
+    assert 1e-4 < np.max(np.abs(tip2)) < 1e-3
+    numpy_run = m2_runs[2]
+    common = np.searchsorted(numpy_run.times, result.times[result.times <= ENERGY_SPAN])
+    for name in ("chord2", "tip2"):
+        early = result.output(name)[result.times <= ENERGY_SPAN]
+        assert np.max(np.abs(early - numpy_run.output(name)[common])) < 1e-9  # measured 3e-13
 
 
 def test_outputs_converge_as_the_links_are_refined(m2_runs):
