@@ -1,11 +1,14 @@
-"""Benchmark the backends: wall time per simulated second of INTELSAT V and the two flexible
-links, at each model's own tolerance, for
+"""Benchmark the targets: wall time per simulated second of INTELSAT V and the two flexible
+links, at each model's own tolerance, side by side in one run:
 
-    c-library   depsim.runtime.clib.simulate: the C integrator through ctypes (Result built)
+    c-library   depsim.runtime.simulate on the C target: the core with the compiled model
+                (the Result built in Python)
     c-program   the standalone program of the C target folder (process start, CSV written)
-    numpy       depsim.runtime.simulate: the Python integrator on the NumPy module
-    scipy       depsim.runtime.simulate_direct: scipy solve_ivp (DOP853) on the index-1
-                equations, factorising the augmented matrix at every evaluation
+    numpy       depsim.runtime.simulate on the NumPy module: the same core, the model's
+                functions called back in Python
+    scipy       the test suite's reference solver (tests/references/direct.py): scipy
+                solve_ivp (DOP853) on the index-1 equations, factorising the augmented matrix
+                at every evaluation (friction by the regularised law, no latches)
 
 Each time is the median of --repeat runs; ratios are to the C library (higher: slower).
 
@@ -29,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tests"))  # the reference solver
 MODELS = {"intelsat5": 10.0, "two_link_flex": 0.02}  # default simulated time (s)
 BACKENDS = ("c-library", "c-program", "numpy", "scipy")
 
@@ -48,7 +52,7 @@ def prepare(name: str, folder: Path):
     from depsim.codegen import compile_c, compile_numpy, derive, load_generated
     from depsim.codegen.c_emit import c_program_name
     from depsim.dsl import load_model
-    from depsim.runtime.ctarget import load_folder
+    from depsim.runtime.binding import load_folder
 
     model = load_model(ROOT / "examples" / f"{name}.dep")
     system = derive(model)
@@ -59,15 +63,16 @@ def prepare(name: str, folder: Path):
 
 
 def runners(numpy_module, c_module, program: Path, t_end: float, out: Path) -> dict:
-    from depsim.runtime import clib, simulate, simulate_direct
+    from depsim.runtime import simulate
+    from references.direct import solve_direct
 
     def direct():
         with warnings.catch_warnings(), np.errstate(all="ignore"):
             warnings.simplefilter("ignore")  # solve_ivp's rejected trial steps overflow
-            simulate_direct(numpy_module, t_end=t_end)
+            solve_direct(numpy_module, t_end=t_end)
 
     return {
-        "c-library": lambda: clib.simulate(c_module, t_end=t_end),
+        "c-library": lambda: simulate(c_module, t_end=t_end),
         "c-program": lambda: subprocess.run([str(program), "--t-end", repr(t_end), "-o",
                                              str(out)], check=True, stdout=subprocess.DEVNULL),
         "numpy": lambda: simulate(numpy_module, t_end=t_end),

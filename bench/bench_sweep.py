@@ -47,8 +47,8 @@ def main(argv=None) -> int:
 
     from depsim.codegen import compile_c, compile_numpy
     from depsim.dsl import load_model
-    from depsim.runtime import clib, simulate as simulate_numpy
-    from depsim.runtime.ctarget import build_library
+    from depsim.runtime import simulate
+    from depsim.runtime.binding import build_model_library
     from depsim.runtime.sweep import Study, default_workers, load_module, make_design, run_study
     from depsim.runtime.sweep.metrics import evaluate
 
@@ -56,11 +56,9 @@ def main(argv=None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         model = load_model(args.model)
         if args.target == "c":
-            module_path = build_library(compile_c(model, Path(tmp) / "generated"))
-            simulate = clib.simulate
+            module_path = build_model_library(compile_c(model, Path(tmp) / "generated"))
         else:
             module_path = compile_numpy(model, Path(tmp) / "generated")
-            simulate = simulate_numpy
         module = load_module(module_path)
         names = tuple(module.PARAMETERS)
         samples = [s for s in SAMPLES if s.split("=")[0] in names]
@@ -75,7 +73,7 @@ def main(argv=None) -> int:
                   "backends": {}}
         print(f"{module.MODEL_NAME} ({args.target}): one run in this process {single:.3f} s "
               f"(serial estimate {args.runs * single:.1f} s for {args.runs} runs)")
-        study = Study(module_path, design, t_end=args.t_end, simulate=simulate)
+        study = Study(module_path, design, t_end=args.t_end)
         for backend in [b.strip() for b in args.backends.split(",") if b.strip()]:
             out = Path(tmp) / f"{backend}.nc"
             if backend == "pool":

@@ -20,6 +20,8 @@ from pathlib import Path
 
 from depsim.dsl import ir
 
+from depsim.runtime import interface
+
 from .c_printer import CPrinter, c_comment, c_double, c_file_stem, c_string
 from .derive import SymbolicSystem, derive
 from .emit import ENVIRONMENT
@@ -30,10 +32,9 @@ C_ENVIRONMENT = ENVIRONMENT.overlay()
 C_ENVIRONMENT.filters.update(c_string=c_string, c_comment=c_comment, c_double=c_double)
 
 GENERATED_FILES = ("model.c", "model.h", "Makefile")
+_INTERFACE = {f.name: f for f in interface.FUNCTIONS}
 PROGRAM_SOURCE = "main.c"  # the program's entry point, left out of the library
 
-_ARGUMENT_TYPES = {"q": "const double *q", "qd": "const double *qd", "t": "double t",
-                   "p": "const double *p"}
 
 
 @dataclass(frozen=True)
@@ -116,43 +117,23 @@ def c_function(f: FunctionView) -> CFunction:
         results.append(CResult(r.name, size, len(entries) < size, entries))
         if size == 0:  # an empty result (no dissipators, no outputs): nothing to write
             unused.append(r.name)
-    declaration = ", ".join([_ARGUMENT_TYPES[a] for a in f.args]
-                            + [f"double *{r.name}" for r in f.results])
+    declaration = interface.c_declaration(_INTERFACE[f.name])
     return CFunction(f.name, declaration, f.summary, tuple(unused), f.temporaries,
                      tuple(results))
 
 
-def _tables(m: ModuleView) -> tuple[CTable, ...]:
-    def strings(field, name, values):
-        return CTable(field, name, "const char *const", tuple(map(c_string, values)))
+_LITERALS = {"const char *const": c_string, "const double": c_double, "const int": str}
 
-    return (
-        strings("coordinate_names", "COORDINATES", m.coordinates),
-        strings("parameter_names", "PARAMETERS", m.parameters),
-        CTable("parameter_defaults", "PARAMETER_DEFAULTS", "const double",
-               tuple(map(c_double, m.parameter_defaults))),
-        strings("parameter_units", "PARAMETER_UNITS", m.parameter_units),
-        strings("constraint_names", "CONSTRAINTS", m.constraints),
-        strings("constraint_joints", "CONSTRAINT_JOINTS", m.constraint_joints),
-        CTable("phi_q_rows", "PHI_Q_ROWS", "const int", tuple(map(str, m.phi_q_rows))),
-        CTable("phi_q_cols", "PHI_Q_COLS", "const int", tuple(map(str, m.phi_q_cols))),
-        strings("hinge_names", "HINGES", m.hinges),
-        strings("hinge_property_names", "HINGE_PROPERTIES", m.hinge_properties),
-        strings("slider_names", "SLIDERS", m.sliders),
-        strings("output_names", "OUTPUTS", m.outputs),
-        strings("output_units", "OUTPUT_UNITS", m.output_units),
-        strings("energy_names", "ENERGIES", m.energies),
-        strings("dissipator_names", "DISSIPATORS", m.dissipators),
-    )
+
+def _tables(m: ModuleView) -> tuple[CTable, ...]:
+    return tuple(CTable(t.field, t.constant, t.ctype, tuple(map(_LITERALS[t.ctype], t.values)))
+                 for t in m.tables)
 
 
 def c_view(view: ModuleView, runtime_files: tuple[str, ...]) -> CModuleView:
     """The C target's view-model of a lowered module; `runtime_files`: names in runtime/c."""
     m = view
-    sizes = (("nq", len(m.coordinates)), ("nc", len(m.constraints)), ("np", len(m.parameters)),
-             ("nnz", len(m.phi_q_rows)), ("nh", len(m.hinges)),
-             ("nhp", len(m.hinge_properties)), ("ns", len(m.sliders)),
-             ("nout", len(m.outputs)), ("ne", len(m.energies)), ("nd", len(m.dissipators)))
+    sizes = tuple((field, value) for field, _, value in m.sizes)
     sources = ("model.c",) + tuple(sorted(f for f in runtime_files
                                           if f.endswith(".c") and f != PROGRAM_SOURCE))
     headers = ("model.h",) + tuple(sorted(f for f in runtime_files if f.endswith(".h")))

@@ -13,6 +13,7 @@ import sympy
 from sympy import ImmutableMatrix
 
 from depsim.dsl import ir
+from depsim.dsl.attributes import HINGE_PROPERTIES
 
 from .assembly import assemble
 from .expr import to_sympy
@@ -20,9 +21,6 @@ from .kinematics import Coordinates, Kinematics
 from .layout import build_coordinates
 from .loads import derive_loads
 
-# Per-hinge settings the runtime applies itself (latches, stops, stick-slip), as functions of p.
-HINGE_PROPERTIES = ("latch", "latch_stiffness", "latch_damping", "stop_min", "stop_max",
-                    "friction", "static_friction", "slip_rate")
 
 
 @dataclass(frozen=True)

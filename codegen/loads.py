@@ -1,8 +1,10 @@
 """Energies, dissipation and the generalized applied force.
 
 Potentials (hinge springs, cable loops, gravity, beam elasticity) give f = -dV/dq exactly, so
-a free conservative model conserves energy. Hinge friction and damping are torques tau on the
-hinge angle theta, mapped to generalized forces Q = (d theta/dq)^T tau."""
+a free conservative model conserves energy. Hinge damping is a torque tau on the hinge angle
+theta, mapped to the generalized force Q = (d theta/dq)^T tau. Hinge Coulomb friction is not
+here: its torque depends on the hinge's mode (sliding, stuck, locked by a latch or stop), so
+the integrator applies it from hinge_properties (docs/deployment.md)."""
 
 from __future__ import annotations
 
@@ -104,15 +106,12 @@ Dissipator = tuple[str, list[sympy.Expr], sympy.Expr]  # name, generalized force
 
 def _hinge_dissipators(model: ir.Model, kin: Kinematics,
                        jacobian: sympy.Matrix) -> list[Dissipator]:
-    """Coulomb friction (tanh-regularised) and viscous damping torques on hinge angles."""
+    """Viscous damping torques on hinge angles."""
     qd = sympy.Matrix(kin.symbols.qd)
     found = []
     for index, hinge in enumerate(model.hinges):
         row = jacobian[index, :]
         rate = (row * qd)[0, 0]
-        if hinge.friction is not None:
-            magnitude = kin.const(hinge.friction) * sympy.tanh(rate / kin.const(hinge.slip_rate))
-            found.append((f"friction.{hinge.name}", list(-magnitude * row), magnitude * rate))
         if hinge.damping is not None:
             damping = kin.const(hinge.damping)
             found.append((f"damping.{hinge.name}", list(-damping * rate * row),

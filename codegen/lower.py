@@ -12,14 +12,15 @@ from typing import Callable
 import sympy
 
 from depsim.dsl import ir
+from depsim.dsl.attributes import HINGE_PROPERTIES
+from depsim.runtime import interface
 
-from .derive import HINGE_PROPERTIES, SymbolicSystem, column
+from .derive import SymbolicSystem, column
 from .printing import LoweringError, SlotPrinter
 
 PrinterFactory = Callable[..., SlotPrinter]  # (slots, temporaries) -> printer
 
-# Argument names and order, shared by every backend (docs/generated-module.md).
-ARGUMENT_ORDER = ("q", "qd", "t", "p")
+ARGUMENT_ORDER = interface.ARGUMENTS  # argument names and order, shared by every backend
 
 
 @dataclass(frozen=True)
@@ -61,29 +62,27 @@ class FunctionView:
 
 
 @dataclass(frozen=True)
+class TableView:
+    """One constant table of the interface (depsim.runtime.interface.TABLES) and its values."""
+
+    constant: str  # module constant, e.g. "COORDINATES"
+    field: str  # dep_model field, e.g. "coordinate_names"
+    ctype: str  # C element type
+    values: tuple
+
+
+@dataclass(frozen=True)
 class ModuleView:
-    """Everything a generated module contains, as plain data (docs/generated-module.md)."""
+    """Everything a generated module contains, as plain data (docs/generated-module.md):
+    identity, sizes (dep_model field, module constant, value), tables, settings, functions."""
 
     model_name: str
     description: str
     source_file: str
     source_sha256: str
     depsim_version: str
-    coordinates: tuple[str, ...]
-    parameters: tuple[str, ...]
-    parameter_defaults: tuple[float, ...]
-    parameter_units: tuple[str, ...]
-    constraints: tuple[str, ...]
-    constraint_joints: tuple[str, ...]
-    phi_q_rows: tuple[int, ...]
-    phi_q_cols: tuple[int, ...]
-    hinges: tuple[str, ...]
-    hinge_properties: tuple[str, ...]
-    sliders: tuple[str, ...]
-    outputs: tuple[str, ...]
-    output_units: tuple[str, ...]
-    energies: tuple[str, ...]
-    dissipators: tuple[str, ...]
+    sizes: tuple[tuple[str, str, int], ...]
+    tables: tuple[TableView, ...]
     t_end: float
     tol: float
     dt_out: float
@@ -102,45 +101,21 @@ class FunctionSpec:
 
 
 def function_specs(system: SymbolicSystem) -> tuple[FunctionSpec, ...]:
-    """The generated functions of docs/generated-module.md, in module order."""
+    """The model functions of the interface (depsim.runtime.interface.FUNCTIONS: names,
+    arguments, results, summaries), each with the system's matrices for its results."""
     s = system
-    phi_q_values = column(s.phi_q[i, j] for i, j in s.phi_q_pattern)
-    return (
-        FunctionSpec("mass_matrix", ("p",), "Constant mass matrix M, shape (NQ, NQ).",
-                     (("M", s.mass_matrix),), flatten=False),
-        FunctionSpec("initial_state", ("p",), "Assembled initial pose and velocities (q0, qd0).",
-                     (("q0", s.q0), ("qd0", s.qd0))),
-        FunctionSpec("phi", ("q", "t", "p"), "Constraint residuals Phi(q, t), shape (NC,).",
-                     (("phi", s.phi),)),
-        FunctionSpec("phi_q", ("q", "t", "p"), "Values of Phi_q at (PHI_Q_ROWS, PHI_Q_COLS).",
-                     (("phi_q", phi_q_values),)),
-        FunctionSpec("phi_t", ("q", "t", "p"), "dPhi/dt, shape (NC,).", (("phi_t", s.phi_t),)),
-        FunctionSpec("gamma", ("q", "qd", "t", "p"),
-                     "Right side of Phi_q qdd = gamma, shape (NC,).", (("gamma", s.gamma),)),
-        FunctionSpec("force", ("q", "qd", "t", "p"),
-                     "Generalized applied force f = -dV/dq + friction + damping, shape (NQ,).",
-                     (("f", s.force),)),
-        FunctionSpec("hinge_angles", ("q", "p"), "Hinge angles theta (rad), shape (NH,).",
-                     (("theta", s.hinge_angles),)),
-        FunctionSpec("hinge_rates", ("q", "qd", "p"), "Hinge angle rates (rad/s), shape (NH,).",
-                     (("theta_rate", s.hinge_rates),)),
-        FunctionSpec("hinge_jacobian", ("q", "p"), "d theta / d q, shape (NH, NQ).",
-                     (("J", s.hinge_jacobian),), flatten=False),
-        FunctionSpec("hinge_gamma", ("q", "qd", "p"),
-                     "-(J qd)_q qd per hinge: a locked hinge adds the row J qdd = hinge_gamma.",
-                     (("gamma_h", s.hinge_gamma),)),
-        FunctionSpec("hinge_properties", ("p",),
-                     "HINGE_PROPERTIES of each hinge (SI; nan: not given), shape (NH, NHP).",
-                     (("H", s.hinge_properties),), flatten=False),
-        FunctionSpec("outputs", ("q", "qd", "t", "p"), "The named outputs, shape (NOUT,).",
-                     (("y", s.outputs),)),
-        FunctionSpec("energy", ("q", "qd", "t", "p"),
-                     "Kinetic energy and each potential (J), in the order of ENERGIES.",
-                     (("E", s.energy),)),
-        FunctionSpec("dissipation", ("q", "qd", "t", "p"),
-                     "Power removed by each element of DISSIPATORS (W).",
-                     (("P", s.dissipation),)),
-    )
+    matrices = {
+        "mass_matrix": (s.mass_matrix,), "initial_state": (s.q0, s.qd0), "phi": (s.phi,),
+        "phi_q": (column(s.phi_q[i, j] for i, j in s.phi_q_pattern),), "phi_t": (s.phi_t,),
+        "gamma": (s.gamma,), "force": (s.force,), "hinge_angles": (s.hinge_angles,),
+        "hinge_rates": (s.hinge_rates,), "hinge_jacobian": (s.hinge_jacobian,),
+        "hinge_gamma": (s.hinge_gamma,), "hinge_properties": (s.hinge_properties,),
+        "outputs": (s.outputs,), "energy": (s.energy,), "dissipation": (s.dissipation,),
+    }
+    return tuple(FunctionSpec(f.name, f.args, f.summary,
+                              tuple((r.name, m) for r, m in zip(f.results, matrices[f.name])),
+                              flatten=len(f.results[0].shape) == 1)
+                 for f in interface.FUNCTIONS)
 
 
 def slots(system: SymbolicSystem, args: tuple[str, ...]) -> dict[sympy.Symbol, str]:
@@ -202,19 +177,27 @@ def lower_module(model: ir.Model, system: SymbolicSystem, printer: PrinterFactor
                  depsim_version: str) -> ModuleView:
     """The whole module's view-model: header constants and every function."""
     rows, cols = zip(*system.phi_q_pattern) if system.phi_q_pattern else ((), ())
+    values = {
+        "COORDINATES": system.coordinates, "PARAMETERS": tuple(p.name for p in model.params),
+        "PARAMETER_DEFAULTS": tuple(float(p.default) for p in model.params),
+        "PARAMETER_UNITS": tuple(p.unit for p in model.params),
+        "CONSTRAINTS": system.constraint_names, "CONSTRAINT_JOINTS": system.constraint_joints,
+        "PHI_Q_ROWS": tuple(rows), "PHI_Q_COLS": tuple(cols), "HINGES": system.hinge_names,
+        "HINGE_PROPERTIES": HINGE_PROPERTIES, "SLIDERS": system.slider_names,
+        "OUTPUTS": system.output_names, "OUTPUT_UNITS": tuple(o.unit for o in model.outputs),
+        "ENERGIES": system.energy_names, "DISSIPATORS": system.dissipator_names,
+    }
+    tables = tuple(TableView(t.constant, t.field, t.ctype, values[t.constant])
+                   for t in interface.TABLES)
+    counts = {"NQ": len(system.coordinates), "NC": len(system.constraint_names),
+              "NP": len(model.params)}
+    sizes = tuple((s.field, s.constant, counts.get(s.constant, len(values.get(s.constant, ()))))
+                  for s in interface.SIZES)
     return ModuleView(
         model_name=model.name, description=model.description,
         source_file=model.source_file.replace("\\", "/").rsplit("/", 1)[-1],
         source_sha256=model.source_sha256, depsim_version=depsim_version,
-        coordinates=system.coordinates,
-        parameters=tuple(p.name for p in model.params),
-        parameter_defaults=tuple(float(p.default) for p in model.params),
-        parameter_units=tuple(p.unit for p in model.params),
-        constraints=system.constraint_names, constraint_joints=system.constraint_joints,
-        phi_q_rows=tuple(rows), phi_q_cols=tuple(cols),
-        hinges=system.hinge_names, hinge_properties=HINGE_PROPERTIES, sliders=system.slider_names,
-        outputs=system.output_names, output_units=tuple(o.unit for o in model.outputs),
-        energies=system.energy_names, dissipators=system.dissipator_names,
+        sizes=sizes, tables=tables,
         t_end=model.simulation.t_end, tol=model.simulation.tol, dt_out=model.simulation.dt_out,
         functions=tuple(lower_function(system, spec, printer) for spec in function_specs(system)),
     )

@@ -27,17 +27,6 @@ from depsim.errors import UsageError
 TARGETS = ("numpy", "c")
 
 
-def default_target() -> str:
-    """"c" when a C compiler is on this machine, else "numpy"."""
-    from depsim.runtime.ctarget import CBuildError, compiler
-
-    try:
-        compiler()
-    except CBuildError:
-        return "numpy"
-    return "c"
-
-
 def load(path: str | os.PathLike) -> Model:
     """Parse and check a `.dep` file. Raises `depsim.dsl.ModelError` on a bad model."""
     return Model(load_model(path), Path(path))
@@ -69,15 +58,19 @@ class Model:
 
     def compile(self, target: str = "numpy", out_dir: str | os.PathLike | None = None) -> Simulator:
         """Generate code for `target` and load it: "numpy" (a Python module) or "c" (a C
-        folder built into a shared library, loaded with ctypes). Artifacts are cached under
-        `out_dir` or the user cache, keyed by the model hash, element counts and depsim
-        version (the C build also by compiler and flags)."""
+        folder whose model is built into a shared library). Either runs on the integrator
+        core (built once per cache). Artifacts are cached under `out_dir` or the user cache,
+        keyed by the model hash, element counts and depsim version (the C build also by
+        compiler and flags)."""
         if target not in TARGETS:
             raise UsageError(f"unknown target '{target}' (available: {', '.join(TARGETS)})")
         directory = Path(out_dir) if out_dir is not None else _cache_dir(self.ir, target)
+        from depsim.runtime.core import core
+
+        core()  # the integrator: built once per cache; CBuildError without a C compiler
         if target == "c":
             from depsim.codegen import compile_c
-            from depsim.runtime.ctarget import load_folder
+            from depsim.runtime.binding import load_folder
 
             return Simulator(self, load_folder(compile_c(self.ir, directory)), target)
         from depsim.codegen import compile_numpy, load_generated
@@ -86,8 +79,9 @@ class Model:
 
 
 def _cache_dir(model: ir.Model, target: str) -> Path:
-    root = Path(os.environ.get("DEPSIM_CACHE") or
-                Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "depsim")
+    from depsim.runtime.core import cache_root
+
+    root = cache_root()
     elements = ",".join(f"{b.name}={b.elements}" for b in model.beams)
     key = hashlib.sha256(f"{model.source_sha256}|{elements}|{__version__}|{target}".encode())
     return root / f"{model.name}-{key.hexdigest()[:16]}"
@@ -119,17 +113,10 @@ class Simulator:
     def run(self, set: Mapping[str, float | str] | None = None, t_end: float | None = None,
             dt_out: float | None = None, tol: float | None = None, progress: bool = False):
         """Simulate with parameters `set` applied; returns a `depsim.runtime.Result`."""
-        return self.simulate_function()(self.module, self.parameters(set), t_end=t_end,
-                                        dt_out=dt_out, tol=tol, progress=progress)
+        from depsim.runtime import simulate
 
-    def simulate_function(self):
-        """The runtime entry point for this target: `depsim.runtime.simulate` (NumPy) or
-        `depsim.runtime.clib.simulate` (C); both return the same `Result`."""
-        if self.target == "c":
-            from depsim.runtime.clib import simulate
-        else:
-            from depsim.runtime import simulate
-        return simulate
+        return simulate(self.module, self.parameters(set), t_end=t_end, dt_out=dt_out,
+                        tol=tol, progress=progress)
 
 
 def _unknown_parameter(name: str, by_name, derived) -> str:
@@ -180,4 +167,4 @@ def sweep(sim: Simulator, *, grid=None, samples=None, runs=None, seed=None, metr
                          metrics=metrics, t_end=t_end, dt_out=dt_out, tol=tol,
                          time_grid=time_grid, workers=workers, scheduler=scheduler, out=out,
                          resume=resume, progress=progress, quantity=quantity,
-                         defaults=sim.defaults, simulate=sim.simulate_function())
+                         defaults=sim.defaults)

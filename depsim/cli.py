@@ -38,7 +38,7 @@ def _report(exc: Exception) -> int | None:
     from depsim.dsl import ModelError, format_diagnostics
     from depsim.errors import UsageError
     from depsim.runtime import SolverError
-    from depsim.runtime.ctarget import CBuildError
+    from depsim.runtime.core import CBuildError
     from depsim.runtime.sweep import CheckpointError, StudyError, SweepSpecError
 
     if isinstance(exc, ModelError):
@@ -78,7 +78,8 @@ def _parser() -> argparse.ArgumentParser:
     run = commands.add_parser("run", help="compile and simulate a model")
     run.add_argument("model", help="the .dep file")
     run.add_argument("--target", choices=["numpy", "c"], default="numpy",
-                     help="numpy (default) or c (compiled shared library)")
+                     help="numpy (default: a Python module) or c (a compiled model); both run "
+                          "on the compiled integrator core")
     run.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                      help="override a parameter, units allowed (h1.preload=1.5N*m); repeatable")
     run.add_argument("--t-end", type=_positive_float, metavar="T", help="end time (s)")
@@ -93,8 +94,8 @@ def _parser() -> argparse.ArgumentParser:
 
     sweep = commands.add_parser("sweep", help="run a parameter study (grid or Monte Carlo)")
     sweep.add_argument("model", help="the .dep file")
-    sweep.add_argument("--target", choices=["numpy", "c"], default=None,
-                       help="default: c when a C compiler is present, else numpy")
+    sweep.add_argument("--target", choices=["numpy", "c"], default="c",
+                       help="c (default: compiled model) or numpy")
     sweep.add_argument("--grid", action="append", default=[], metavar="NAME=START:STOP:N",
                        help="a grid axis; several axes give the full factorial; repeatable")
     sweep.add_argument("--sample", action="append", default=[], metavar="NAME=DIST(...)",
@@ -231,9 +232,7 @@ def _sweep(args) -> int:
     import depsim
     from depsim.runtime.sweep import plot_study, summarize
 
-    from depsim.api import default_target
-
-    sim = _load(args).compile(target=args.target or default_target())
+    sim = _load(args).compile(target=args.target)
     out = args.out or f"{Path(args.model).stem}-sweep.nc"
     study = depsim.sweep(sim, grid=args.grid, samples=args.sample, runs=args.runs,
                          seed=args.seed, t_end=args.t_end, dt_out=args.dt_out, tol=args.tol,

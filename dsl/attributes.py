@@ -21,12 +21,14 @@ from .units import ANGLE, LENGTH, MASS, NONE, TIME, TORQUE, describe, dim_div, s
 @dataclass(frozen=True, slots=True)
 class AttrSpec:
     """An attribute of an element kind. dim None: read by dedicated code (angle, angles,
-    elements, axis). limit: "positive", "nonnegative" or ""."""
+    elements, axis). limit: "positive", "nonnegative" or "". default: the SI value an
+    attribute takes when the model leaves it out (None: it is absent then)."""
 
     name: str
     dim: Dim | None
     required: bool = False
     limit: str = ""
+    default: float | None = None
 
 
 _STIFFNESS = Dim(mass=1, length=2, time=-2, angle=-1)
@@ -45,7 +47,7 @@ SPECS: dict[str, tuple[AttrSpec, ...]] = {
     "hinge": (AttrSpec("angle", None), AttrSpec("stiffness", _STIFFNESS, False, "nonnegative"),
               AttrSpec("preload", TORQUE), AttrSpec("friction", TORQUE, False, "nonnegative"),
               AttrSpec("static_friction", TORQUE, False, "nonnegative"),
-              AttrSpec("slip_rate", Dim(angle=1, time=-1), False, "positive"),
+              AttrSpec("slip_rate", Dim(angle=1, time=-1), False, "positive", default=1e-3),
               AttrSpec("damping", _DAMPING, False, "nonnegative"), AttrSpec("latch", ANGLE),
               AttrSpec("latch_stiffness", _STIFFNESS, False, "positive"),
               AttrSpec("latch_damping", _DAMPING, False, "nonnegative"),
@@ -59,6 +61,11 @@ SPECS: dict[str, tuple[AttrSpec, ...]] = {
     "ground": (),
 }
 _POINTS_ALLOWED = ("bar", "body", "ground")
+
+# The hinge attributes the integrator applies itself (Coulomb friction, latches, hard stops,
+# stick-slip): the columns of a generated model's hinge_properties(p), in this order.
+HINGE_PROPERTIES = ("latch", "latch_stiffness", "latch_damping", "stop_min", "stop_max",
+                    "friction", "static_friction", "slip_rate")
 
 
 def read_block(block: Block | None, kind: str, owner: str, owner_span: Span,

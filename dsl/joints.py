@@ -11,15 +11,12 @@ from .attributes import SPECS, AttributeReader, read_block
 from .errors import did_you_mean, join_names
 from .evaluate import binary
 from .hinge_angle import hinge_angle
-from .ir import Attachment, Cable, CableTerm, Dim, Expr, Num, Span
+from .ir import Attachment, Cable, CableTerm, Expr, Num, Span
 from .linear import LinearForm, NotLinear, linearize
 from .members import read_vector
 from .names import MEMBER_KINDS, Symbol, SymbolTable, element_name
 from .syntax import AttachmentRef, CableStmt, JointStmt, VectorLit
 from .units import NONE
-
-SLIP_RATE = 1e-3  # rad/s, the default tanh regularisation of hinge friction
-
 
 def attachment(ref: AttachmentRef, symbols: SymbolTable, reader: AttributeReader
                ) -> tuple[Symbol, Attachment] | None:
@@ -71,9 +68,10 @@ def resolve_hinge(statement: JointStmt, symbols: SymbolTable, reader: AttributeR
             angle = hinge_angle(statement, item, ends, symbols, reader) if ends else None
         else:
             fields[key] = reader.scalar(item, specs[key], f"{name}.{key}")
-    if "slip_rate" not in found:
-        fields["slip_rate"] = reader.enter(f"{name}.slip_rate", Num(SLIP_RATE),
-                                           Dim(angle=1, time=-1), statement.name.span)
+    for key, spec in specs.items():  # attributes with a default get a parameter entry
+        if key not in found and spec.default is not None:
+            fields[key] = reader.enter(f"{name}.{key}", Num(spec.default), spec.dim,
+                                       statement.name.span)
     _check_hinge_limits(found, fields, reader)
     if ends is None or angle is None or any(fields[k] is None for k in found if k != "angle"):
         return None

@@ -8,20 +8,16 @@ from __future__ import annotations
 import math
 import textwrap
 
+from .attributes import SPECS
 from .errors import header
 from .evaluate import EvaluationError, evaluate
 from .ir import Dim, Expr, Member, MemberKind, Model, Num
 from .units import ANGLE, si_text
 
 _WIDTH = 100
-_HINGE_ATTRIBUTES = ("stiffness", "preload", "friction", "static_friction", "slip_rate",
-                     "damping", "latch", "latch_stiffness", "latch_damping", "stop_min",
-                     "stop_max", "initial_angle", "initial_rate")
-_HINGE_DIMS = {"stiffness": Dim(1, 2, -2, -1), "latch_stiffness": Dim(1, 2, -2, -1),
-               "preload": Dim(1, 2, -2), "friction": Dim(1, 2, -2),
-               "static_friction": Dim(1, 2, -2), "slip_rate": Dim(time=-1, angle=1),
-               "damping": Dim(1, 2, -1, -1), "latch_damping": Dim(1, 2, -1, -1),
-               "initial_rate": Dim(time=-1, angle=1)}
+_HINGE_DIMS = {spec.name: spec.dim for spec in SPECS["hinge"] if spec.dim is not None}
+_HINGE_DIMS.update(initial_angle=ANGLE, initial_rate=Dim(time=-1, angle=1))
+_HINGE_ATTRIBUTES = tuple(_HINGE_DIMS)
 
 
 def summary(model: Model) -> str:

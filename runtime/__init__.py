@@ -1,5 +1,5 @@
-"""depsim.runtime: integrates generated modules with the seed paper's iterative multiplier
-method and returns plain results. Imports neither sympy nor depsim.dsl / depsim.codegen.
+"""depsim.runtime: runs models through the one integrator core (runtime/c) and returns plain
+results. Imports neither sympy nor depsim.dsl / depsim.codegen.
 
     from depsim.runtime import simulate
     result = simulate(module)              # module: see docs/generated-module.md
@@ -8,19 +8,30 @@ method and returns plain results. Imports neither sympy nor depsim.dsl / depsim.
     animate(result, module, "out.gif")
 
 Latches, hard stops and stick-slip friction come from the module's `hinge_properties` and are
-applied by default (`simulate(..., mechanics=False)` turns them off).
+applied by default (`simulate(..., mechanics=False)` turns them off). The names below are
+imported on first use, so `depsim.runtime.interface` (the model interface the code generator
+also reads) loads without numpy, cffi or matplotlib.
 """
 
-from .constraints import ConstraintSet, HingeLock, LinearConstraint
-from .direct import simulate_direct
-from .errors import SolverError
-from .events import Event, EventHit, EventResponse
-from .animation import animate
-from .integrator import simulate
-from .loads import Deployment, HingeLoad, LatchRecord, PeakLoad
-from .results import EventRecord, PassStats, Result, Stats
+import importlib
+
+_EXPORTS = {
+    "simulate": "runner", "SolverError": "errors", "Event": "events",
+    "EventHit": "events", "EventResponse": "events", "ConstraintSet": "constraints",
+    "HingeLock": "constraints", "LinearConstraint": "constraints", "Result": "results",
+    "Stats": "results", "PassStats": "results", "EventRecord": "results",
+    "Deployment": "loads", "HingeLoad": "loads", "LatchRecord": "loads", "PeakLoad": "loads",
+    "animate": "animation", "CModule": "binding", "load_folder": "binding",
+    "CBuildError": "core",
+}
+
+__all__ = sorted(_EXPORTS)
 
 
-__all__ = ["simulate", "simulate_direct", "Result", "Stats", "PassStats", "EventRecord",
-           "SolverError", "Event", "EventHit", "EventResponse", "ConstraintSet", "HingeLock",
-           "LinearConstraint", "Deployment", "HingeLoad", "LatchRecord", "PeakLoad", "animate"]
+def __getattr__(name: str):
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'depsim.runtime' has no attribute '{name}'")
+    value = getattr(importlib.import_module(f"{__name__}.{module}"), name)
+    globals()[name] = value
+    return value

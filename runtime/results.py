@@ -18,8 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .loads import (Deployment, HingeLoad, PeakLoad, PeakTracker, deployment_of, hinge_forces,
-                    merge_peaks)
+from .loads import Deployment, HingeLoad, PeakLoad, hinge_forces
 
 
 @dataclass(frozen=True, slots=True)
@@ -100,9 +99,15 @@ class Result:
     dissipated: np.ndarray  # (n, ND) J, work removed since t = 0
     stats: Stats
     events: tuple[EventRecord, ...]
-    hinge_torque: np.ndarray | None = None  # (n, NH) N m lock torque on member b, NaN if free
-    latch_hinges: tuple[str, ...] = ()  # hinges with a latch (docs/deployment.md)
-    step_peaks: dict | None = None  # {hinge: PeakLoad} found at the accepted step points
+    hinge_torque: np.ndarray  # (n, NH) N m lock torque on member b, NaN if free
+    peak_loads: dict[str, PeakLoad]  # largest hinge loads over output times and every step
+    deployment: Deployment  # latches, deployed or not, dissipated energy (docs/deployment.md)
+    report_text: str  # the run's summary, as report() returns it
+
+    @property
+    def latch_hinges(self) -> tuple[str, ...]:
+        """The hinges with a latch (docs/deployment.md)."""
+        return self.deployment.latch_hinges
 
     @property
     def hinge_loads(self) -> dict[str, HingeLoad]:
@@ -110,30 +115,9 @@ class Result:
         frame, N; from the multipliers of rows "<h>.x", "<h>.y"), its magnitude, and the lock
         torque (N m, NaN while nothing locks the hinge). docs/deployment.md, section 5."""
         forces = hinge_forces(self.hinge_names, self.constraint_names, self.lam)
-        torque = (self.hinge_torque if self.hinge_torque is not None
-                  else np.full((len(self.times), len(self.hinge_names)), np.nan))
         return {h: HingeLoad(forces[:, k, 0], forces[:, k, 1],
-                             np.hypot(forces[:, k, 0], forces[:, k, 1]), torque[:, k])
+                             np.hypot(forces[:, k, 0], forces[:, k, 1]), self.hinge_torque[:, k])
                 for k, h in enumerate(self.hinge_names)}
-
-    @property
-    def peak_loads(self) -> dict[str, PeakLoad]:
-        """Largest hinge force and lock torque magnitudes over the run (output times and, for
-        the iterative method, every accepted step point), with their times."""
-        tracker = PeakTracker(self.hinge_names)
-        forces = hinge_forces(self.hinge_names, self.constraint_names, self.lam)
-        torque = (self.hinge_torque if self.hinge_torque is not None
-                  else np.full((len(self.times), len(self.hinge_names)), np.nan))
-        for i, t in enumerate(self.times):
-            tracker.observe(float(t), forces[i], torque[i])
-        peaks = tracker.peaks()
-        return merge_peaks(peaks, self.step_peaks) if self.step_peaks else peaks
-
-    @property
-    def deployment(self) -> Deployment:
-        """Latch times, rates and impulses, deployed or not, time to full deployment, friction
-        and impact energy (loads.Deployment)."""
-        return deployment_of(self)
 
     def output(self, name: str) -> np.ndarray:
         """The column of output `name` (n,)."""
@@ -180,61 +164,9 @@ class Result:
 
     def report(self) -> str:
         """Human-readable lines: deployment first (deployed or not, latches with time, rate and
-        impulse, time to full deployment, peak hinge loads, friction energy), then the solver."""
-        lines = [f"{self.model}: {len(self.times)} output times to t = {self.times[-1]:.6g} s "
-                 f"({self.method}, tol = {self.tol:.1e})"]
-        lines += _deployment_lines(self.deployment, self.peak_loads, self.t_end)
-        lines += self._solver_lines()
-        return "\n".join(lines)
-
-    def _solver_lines(self) -> list[str]:
-        s = self.stats
-        lines = [
-            f"  steps: {s.accepted_steps} accepted, {s.rejected_steps} rejected, "
-            f"{s.failed_steps} retried; {s.rhs_evaluations} force evaluations",
-            f"  iterations per step: position {s.position.mean:.2f} (max {s.position.max}), "
-            f"velocity {s.velocity.mean:.2f} (max {s.velocity.max}), "
-            f"acceleration {s.acceleration.mean:.2f} (max {s.acceleration.max})",
-            f"  largest constraint residuals at steps: position {s.max_v_pos:.1e}, "
-            f"velocity {s.max_v_vel:.1e}, acceleration {s.max_v_acc:.1e}",
-        ]
-        others = [e for e in self.events if e.name not in {f"{h}.latch" for h in self.latch_hinges}]
-        shown = others[:EVENTS_SHOWN]
-        lines += [f"  event {e.name} at t = {e.t:.9g} s" for e in shown]
-        if len(others) > len(shown):
-            lines.append(f"  ... and {len(others) - len(shown)} more events (see the JSON summary)")
-        return lines
-
-
-EVENTS_SHOWN = 20
-
-
-def _deployment_lines(deployment: Deployment, peaks: dict, t_end: float) -> list[str]:
-    lines = []
-    if deployment.deployed is not None:
-        if deployment.deployed:
-            lines.append(f"  DEPLOYED: all {len(deployment.latch_hinges)} latches latched; "
-                         f"full deployment at t = {deployment.time:.6g} s")
-        else:
-            missing = sorted(set(deployment.latch_hinges) - {r.hinge for r in deployment.latches})
-            lines.append(f"  NOT DEPLOYED by t = {t_end:.6g} s: {len(missing)} of "
-                         f"{len(deployment.latch_hinges)} latches open ({', '.join(missing)})")
-        for r in deployment.latches:
-            impulse = ("compliant" if r.impulse is None else
-                       f"impulse {r.impulse:.4g} N*m*s, {r.energy_loss:.4g} J lost")
-            lines.append(f"    latch {r.hinge}: t = {r.t:.9g} s, rate {r.rate:.4g} rad/s "
-                         f"({np.degrees(r.rate):.4g} deg/s), {impulse}")
-    loaded = {h: p for h, p in peaks.items() if p.force > 0 or p.torque > 0}
-    if loaded:
-        lines.append("  peak hinge loads (force on member b from a; lock torque):")
-        for h, p in loaded.items():
-            torque = (f", torque {p.torque:.4g} N*m at t = {p.t_torque:.6g} s"
-                      if p.torque > 0 else "")
-            lines.append(f"    {h}: {p.force:.4g} N at t = {p.t_force:.6g} s{torque}")
-    if deployment.friction_energy or deployment.impact_energy:
-        lines.append(f"  energy dissipated: friction {deployment.friction_energy:.6g} J, "
-                     f"latch/stop impacts {deployment.impact_energy:.6g} J")
-    return lines
+        impulse, time to full deployment, peak hinge loads, friction energy), then the solver
+        (the integrator core writes it, so the standalone C program prints the same)."""
+        return self.report_text.rstrip("\n")
 
 
 def _deployment_summary(deployment: Deployment) -> dict:

@@ -13,9 +13,6 @@
 #include "runtime.h"
 
 static const char *const KIND_NAMES[4] = {"latch", "stop_min", "stop_max", "stick"};
-static const char *const PROPERTIES[8] = {"latch", "latch_stiffness", "latch_damping",
-                                          "stop_min", "stop_max", "friction",
-                                          "static_friction", "slip_rate"};
 
 const char *dep_kind_name(int kind)
 {
@@ -34,14 +31,6 @@ int dep_hinge_sliding(const dep_hinge_mechanics *h)
     return h->has_static && !dep_hinge_locked(h) && !h->stuck;
 }
 
-/* The runtime replaces the model's tanh friction of this hinge: always with static friction
-   (stick-slip), and while a latch or stop locks it (the tanh law would act as a stiff damper
-   against the lock row). */
-int dep_hinge_owns_friction(const dep_hinge_mechanics *h)
-{
-    return h->kinetic > 0 && (h->has_static || dep_hinge_locked(h));
-}
-
 static int kinds(const dep_hinge_mechanics *h, int *out)
 {
     int present[4] = {h->has_latch, h->has_stop_min, h->has_stop_max, h->has_static}, n = 0;
@@ -51,33 +40,6 @@ static int kinds(const dep_hinge_mechanics *h, int *out)
         }
     }
     return n;
-}
-
-/* The hinge's properties from its row of hinge_properties (NAN: not given). */
-static void read_hinge(dep_hinge_mechanics *h, const double *row, const int *column)
-{
-    double v[8];
-    for (int k = 0; k < 8; ++k) {
-        v[k] = column[k] >= 0 ? row[column[k]] : NAN;
-    }
-    h->has_latch = !isnan(v[0]);
-    h->latch = v[0];
-    h->compliant = h->has_latch && !isnan(v[1]);
-    h->latch_stiffness = v[1];
-    h->latch_damping = isnan(v[2]) || v[2] == 0.0 ? 0.0 : v[2];
-    h->has_stop_min = !isnan(v[3]);
-    h->stop_min = v[3];
-    h->has_stop_max = !isnan(v[4]);
-    h->stop_max = v[4];
-    h->kinetic = isnan(v[5]) || v[5] == 0.0 ? 0.0 : v[5];
-    h->has_static = !isnan(v[6]);
-    h->static_friction = v[6];
-    h->slip_rate = isnan(v[7]) || v[7] == 0.0 ? 1e-3 : v[7];
-    h->latch_side = 1.0;
-    h->direction = 1.0;
-    h->latch_state = DEP_OPEN;
-    h->stop = DEP_STOP_NONE;
-    h->stuck = 0;
 }
 
 static int latch_g(void *, double, const double *, const double *, const dep_active_rows *,
@@ -111,35 +73,19 @@ static void make_events(dep_mechanism *m)
     }
 }
 
-/* Mechanism.for_module: *out is NULL when no hinge has a latch, a stop or static friction. */
-int dep_mechanism_create(dep_mechanism **out, const dep_model *model, const double *p,
+/* The mechanism of the system's hinges; *out is NULL when none has a latch, a stop or
+   static friction (or the system was set up without mechanics). */
+int dep_mechanism_create(dep_mechanism **out, dep_system *system, double tol,
                          dep_arena *arena)
 {
-    int nh = model->nh, nhp = model->nhp, column[8], list[4];
-    double *table = dep_doubles(arena, (size_t)nh * (size_t)nhp);
-    dep_hinge_mechanics *hinges = dep_bytes(arena, (size_t)(nh ? nh : 1) * sizeof *hinges);
+    const dep_model *model = system->model;
+    int nh = system->nh, list[4], n_events = 0, n_latches = 0;
     *out = NULL;
-    if (arena->failed) {
-        return DEP_MEMORY_ERROR;
-    }
-    for (int k = 0; k < 8; ++k) {
-        column[k] = -1;
-        for (int c = 0; c < nhp; ++c) {
-            column[k] = strcmp(model->hinge_property_names[c], PROPERTIES[k]) == 0 ? c : column[k];
-        }
-    }
-    model->hinge_properties(p, table);
-    int n_hinges = 0, n_events = 0;
     for (int i = 0; i < nh; ++i) {
-        dep_hinge_mechanics *h = &hinges[n_hinges];
-        read_hinge(h, table + (size_t)i * (size_t)nhp, column);
-        h->index = i;
-        h->name = model->hinge_names[i];
-        int count = kinds(h, list);
-        n_events += count;
-        n_hinges += count > 0;
+        n_events += kinds(&system->hinges[i], list);
+        n_latches += system->hinges[i].has_latch;
     }
-    if (n_hinges == 0) {
+    if (n_events == 0) {
         return DEP_OK;
     }
     dep_mechanism *m = dep_bytes(arena, sizeof *m);
@@ -147,63 +93,23 @@ int dep_mechanism_create(dep_mechanism **out, const dep_model *model, const doub
         return DEP_MEMORY_ERROR;
     }
     m->model = model;
-    m->p = p;
-    m->hinges = hinges;
-    m->n_hinges = n_hinges;
+    m->p = system->p;
+    m->system = system;
+    m->tol = tol;
+    m->hinges = system->hinges;
+    m->n_hinges = nh;
     m->n_events = n_events;
+    m->n_latches = n_latches;
     m->info = dep_bytes(arena, (size_t)n_events * sizeof *m->info);
     m->events = dep_bytes(arena, (size_t)n_events * sizeof *m->events);
     m->angles = dep_doubles(arena, (size_t)nh);
     m->rates = dep_doubles(arena, (size_t)nh);
-    m->tau = dep_doubles(arena, (size_t)nh);
-    m->hinge_jacobian = dep_doubles(arena, (size_t)nh * (size_t)model->nq);
-    m->base = dep_doubles(arena, (size_t)model->nd + (size_t)nh + 1);
     if (arena->failed) {
         return DEP_MEMORY_ERROR;
     }
-    for (int i = 0; i < n_hinges; ++i) {
-        m->n_compliant += hinges[i].compliant;
-        m->n_latches += hinges[i].has_latch;
-    }
     make_events(m);
+    system->mechanism = m;
     *out = m;
-    return DEP_OK;
-}
-
-/* MechanismSystem: the system's dissipators and energies gain the mechanism's. */
-int dep_mechanism_bind(dep_mechanism *m, const dep_system *system, double tol,
-                       dep_arena *arena)
-{
-    dep_system *s = (dep_system *)system;
-    const dep_model *model = m->model;
-    int nd = model->nd + m->n_compliant, ne = model->ne + m->n_compliant, d, e;
-    m->system = system;
-    m->tol = tol;
-    s->mechanism = m;
-    s->dissipator_names = dep_bytes(arena, (size_t)(nd ? nd : 1) * sizeof(char *));
-    s->energy_names = dep_bytes(arena, (size_t)(ne ? ne : 1) * sizeof(char *));
-    if (s->dissipator_names == NULL || s->energy_names == NULL) {
-        return DEP_MEMORY_ERROR;
-    }
-    for (d = 0; d < model->nd; ++d) {
-        s->dissipator_names[d] = model->dissipator_names[d];
-    }
-    for (e = 0; e < model->ne; ++e) {
-        s->energy_names[e] = model->energy_names[e];
-    }
-    for (int i = 0; i < m->n_hinges; ++i) {
-        if (m->hinges[i].compliant) {
-            char *name = dep_bytes(arena, strlen(m->hinges[i].name) + 7);
-            if (name == NULL) {
-                return DEP_MEMORY_ERROR;
-            }
-            sprintf(name, "latch.%s", m->hinges[i].name);
-            s->dissipator_names[d++] = name;
-            s->energy_names[e++] = name;
-        }
-    }
-    s->nd = nd;
-    s->ne = ne;
     return dep_settle_init(m, arena);
 }
 

@@ -21,8 +21,6 @@
 #ifndef DEPSIM_H
 #define DEPSIM_H
 
-#include <stdio.h>
-
 #include "depsim_model.h"
 
 #define DEP_NAME_MAX 128   /* longest name (row, joint, event, data key) kept, with the NUL */
@@ -35,8 +33,11 @@ enum dep_status {
     DEP_SOLVER_ERROR = 3,    /* the integration cannot go on: Python's SolverError */
     DEP_SETTINGS_ERROR = 4,  /* a bad setting or parameter value: Python's ValueError */
     DEP_CALLBACK_ERROR = 5,  /* an event function or callback reported failure */
-    DEP_MEMORY_ERROR = 6     /* out of memory */
+    DEP_MEMORY_ERROR = 6,    /* out of memory */
+    DEP_INTERRUPTED = 7      /* the progress callback asked to stop */
 };
+
+#define DEP_PROGRESS_STEPS 64 /* accepted steps between calls of dep_settings.progress */
 
 /* One run's settings (SI). dep_default_settings gives the model's own. */
 typedef struct dep_settings {
@@ -44,6 +45,11 @@ typedef struct dep_settings {
     double dt_out; /* s, > 0: output every dt_out, and at t_end */
     double tol;    /* integration tolerance, 100 eps <= tol < 1 */
     int mechanics; /* 1: latches, stops, stick-slip from hinge_properties; 0: without */
+    /* NULL, or called with the time reached (s) every DEP_PROGRESS_STEPS accepted steps and
+       at the end; a non-zero return stops the run with DEP_INTERRUPTED. A binding draws a
+       progress bar or honours Ctrl-C here. */
+    int (*progress)(void *context, double t);
+    void *progress_context;
 } dep_settings;
 
 /* Why a run stopped, with the parts of Python's SolverError. `message` is the full text,
@@ -163,11 +169,34 @@ typedef struct dep_event_record {
     dep_datum *data;
 } dep_event_record;
 
-/* Largest hinge force magnitude (N) and lock torque magnitude (N m) with their times (s; NAN
-   when never loaded), at the output times' complement: the accepted step points. */
+/* Largest hinge force magnitude (N) and lock torque magnitude (N m) over a run, with their
+   times (s): force 0 / t_force NAN when the hinge never carried a force; torque 0 /
+   t_torque NAN when nothing ever held it. */
 typedef struct dep_peak {
     double force, t_force, torque, t_torque;
 } dep_peak;
+
+/* A latch that engaged (its first engagement). */
+typedef struct dep_latch_summary {
+    int hinge;          /* index into the model's hinge_names */
+    double t;           /* s */
+    double rate;        /* hinge rate just before, rad/s */
+    int rigid;          /* 0: compliant */
+    double impulse;     /* angular impulse of the latch on member b, N m s; NAN if compliant */
+    double energy_loss; /* kinetic energy the plastic impact removed, J; NAN if compliant */
+} dep_latch_summary;
+
+/* What a mechanism engineer asks first (docs/deployment.md). */
+typedef struct dep_deployment {
+    int n_latch_hinges;
+    int *latch_hinges;            /* indices of the hinges with a latch */
+    int n_latches;                /* latches that engaged, in time order */
+    dep_latch_summary *latches;
+    int deployed;                 /* 1: every latch engaged; 0: not; -1: the model has none */
+    double time;                  /* s, when the last latch engaged; NAN unless deployed */
+    double friction_energy;       /* J dissipated by hinge friction by the end */
+    double impact_energy;         /* J removed by latch and stop impacts */
+} dep_deployment;
 
 /* A run's results at the n output times (Python's Result); arrays are row-major, one row
    per output time. Free with dep_result_free. */
@@ -189,12 +218,12 @@ typedef struct dep_result {
     char **energy_names;           /* ne: the model's, then a compliant latch's spring */
     char **dissipator_names;       /* nd: the model's, then "latch.<h>" */
     double *hinge_torque;          /* n x nh, N m lock torque on member b, NAN if free */
-    int n_latch_hinges;
-    int *latch_hinges;             /* indices of the hinges with a latch */
-    dep_peak *peaks;               /* nh, hinge loads at the accepted step points */
+    dep_peak *peak_loads;          /* nh: over the output times and every accepted step */
+    dep_deployment deployment;
     dep_stats stats;
     int n_events;
     dep_event_record *events;
+    char *report;                  /* the run's summary as `depsim run` prints it */
 } dep_result;
 
 /* The model's own settings (T_END, DT_OUT, TOL), mechanics on. */
@@ -207,10 +236,6 @@ int dep_simulate(const dep_model *model, const double *params, const dep_setting
                  const dep_event *events, int n_events, dep_result *result, dep_error *error);
 
 void dep_result_free(dep_result *result);
-
-/* The run's summary, as Python's Result.report() and `depsim run` print it: deployment
-   (latches, peak hinge loads, dissipated energy), then the solver's work and the events. */
-void dep_report(const dep_model *model, const dep_result *result, FILE *out);
 
 /* The index of parameter `name`, or -1. */
 int dep_parameter_index(const dep_model *model, const char *name);

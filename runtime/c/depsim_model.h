@@ -1,15 +1,17 @@
-/* depsim_model.h: what the C integrator needs from a generated model.
+/* depsim_model.h: what the integrator needs from a model. GENERATED from
+ * depsim/runtime/interface.py (python -m depsim.runtime.interface); do not edit.
  *
- * A generated model.c defines one `const dep_model depsim_model` filled with its sizes, name
- * tables and functions. The functions are those of docs/generated-module.md, with the same
- * names (prefixed `model_` in model.h) and argument order; the result arrays come last and
- * are written completely (zeros included). Every array holds doubles in SI units:
- * q, qd: nq; p: np; t: time (s). Empty tables are NULL.
+ * A generated model.c defines one `const dep_model depsim_model` filled with its
+ * sizes, name tables and functions; a NumPy module is seen through the same struct.
+ * The functions have the names of docs/generated-module.md (prefixed `model_` in
+ * model.h) and its argument order; the result arrays come last and are written
+ * completely (zeros included). Arrays hold doubles in SI units: q, qd: nq; p: np;
+ * t: time (s). Matrices are row-major. Empty tables are NULL.
  */
 #ifndef DEPSIM_MODEL_H
 #define DEPSIM_MODEL_H
 
-#define DEP_MODEL_ABI 1 /* bumped whenever this struct changes */
+#define DEP_MODEL_ABI 2 /* bumped whenever this struct changes */
 
 typedef struct dep_model {
     int abi; /* DEP_MODEL_ABI of the header the model was compiled with */
@@ -21,53 +23,69 @@ typedef struct dep_model {
     const char *source_sha256;
     const char *depsim_version;
 
-    /* sizes: coordinates, constraint rows, parameters, non-zeros of Phi_q, hinges,
-       hinge properties, sliders, outputs, energy terms, dissipators */
-    int nq, nc, np, nnz, nh, nhp, ns, nout, ne, nd;
+    /* sizes */
+    int nq; /* coordinates */
+    int nc; /* constraint rows */
+    int np; /* parameters */
+    int nnz; /* structural non-zeros of Phi_q */
+    int nh; /* hinges */
+    int nhp; /* hinge properties */
+    int ns; /* sliders */
+    int nout; /* outputs */
+    int ne; /* energy terms */
+    int nd; /* dissipators */
 
-    /* name tables (NULL when empty) */
-    const char *const *coordinate_names;     /* nq */
-    const char *const *parameter_names;      /* np */
-    const double *parameter_defaults;        /* np, SI */
-    const char *const *parameter_units;      /* np */
-    const char *const *constraint_names;     /* nc, "<joint>.<component>" */
-    const char *const *constraint_joints;    /* nc */
-    const int *phi_q_rows;                   /* nnz, row-major sorted */
-    const int *phi_q_cols;                   /* nnz */
-    const char *const *hinge_names;          /* nh */
-    const char *const *hinge_property_names; /* nhp: columns of hinge_properties() */
-    const char *const *slider_names;         /* ns */
-    const char *const *output_names;         /* nout */
-    const char *const *output_units;         /* nout */
-    const char *const *energy_names;         /* ne */
-    const char *const *dissipator_names;     /* nd */
+    /* tables (NULL when empty) */
+    const char *const *coordinate_names; /* nq */
+    const char *const *parameter_names; /* np */
+    const double *parameter_defaults; /* np, SI */
+    const char *const *parameter_units; /* np, SI unit text */
+    const char *const *constraint_names; /* nc, "<joint>.<component>" */
+    const char *const *constraint_joints; /* nc */
+    const int *phi_q_rows; /* nnz, row-major sorted */
+    const int *phi_q_cols; /* nnz */
+    const char *const *hinge_names; /* nh */
+    const char *const *hinge_property_names; /* nhp, columns of hinge_properties() */
+    const char *const *slider_names; /* ns */
+    const char *const *output_names; /* nout */
+    const char *const *output_units; /* nout */
+    const char *const *energy_names; /* ne */
+    const char *const *dissipator_names; /* nd */
 
     /* the model's simulation settings */
     double t_end, tol, dt_out;
 
     /* functions (docs/generated-module.md) */
-    void (*mass_matrix)(const double *p, double *M);                 /* nq x nq, row-major */
-    void (*initial_state)(const double *p, double *q0, double *qd0); /* nq, nq */
-    void (*phi)(const double *q, double t, const double *p, double *phi);          /* nc */
-    void (*phi_q)(const double *q, double t, const double *p, double *phi_q);      /* nnz */
-    void (*phi_t)(const double *q, double t, const double *p, double *phi_t);      /* nc */
-    void (*gamma)(const double *q, const double *qd, double t, const double *p,
-                  double *gamma);                                                   /* nc */
-    void (*force)(const double *q, const double *qd, double t, const double *p,
-                  double *f);                                                       /* nq */
-    void (*hinge_angles)(const double *q, const double *p, double *theta);          /* nh */
-    void (*hinge_rates)(const double *q, const double *qd, const double *p,
-                        double *theta_rate);                                        /* nh */
-    void (*hinge_jacobian)(const double *q, const double *p, double *J);  /* nh x nq */
-    void (*hinge_gamma)(const double *q, const double *qd, const double *p,
-                        double *gamma_h);                                           /* nh */
-    void (*hinge_properties)(const double *p, double *H);                /* nh x nhp */
-    void (*outputs)(const double *q, const double *qd, double t, const double *p,
-                    double *y);                                                     /* nout */
-    void (*energy)(const double *q, const double *qd, double t, const double *p,
-                   double *E);                                                      /* ne */
-    void (*dissipation)(const double *q, const double *qd, double t, const double *p,
-                        double *P);                                                 /* nd */
+    /* Constant mass matrix M, shape (NQ, NQ). */
+    void (*mass_matrix)(const double *p, double *M);
+    /* Assembled initial pose and velocities (q0, qd0). */
+    void (*initial_state)(const double *p, double *q0, double *qd0);
+    /* Constraint residuals Phi(q, t), shape (NC,). */
+    void (*phi)(const double *q, double t, const double *p, double *phi);
+    /* Values of Phi_q at (PHI_Q_ROWS, PHI_Q_COLS). */
+    void (*phi_q)(const double *q, double t, const double *p, double *phi_q);
+    /* dPhi/dt, shape (NC,). */
+    void (*phi_t)(const double *q, double t, const double *p, double *phi_t);
+    /* Right side of Phi_q qdd = gamma, shape (NC,). */
+    void (*gamma)(const double *q, const double *qd, double t, const double *p, double *gamma);
+    /* Generalized applied force f = -dV/dq + damping (no hinge friction), shape (NQ,). */
+    void (*force)(const double *q, const double *qd, double t, const double *p, double *f);
+    /* Hinge angles theta (rad), shape (NH,). */
+    void (*hinge_angles)(const double *q, const double *p, double *theta);
+    /* Hinge angle rates (rad/s), shape (NH,). */
+    void (*hinge_rates)(const double *q, const double *qd, const double *p, double *theta_rate);
+    /* d theta / d q, shape (NH, NQ). */
+    void (*hinge_jacobian)(const double *q, const double *p, double *J);
+    /* -(J qd)_q qd per hinge: a locked hinge adds the row J qdd = hinge_gamma. */
+    void (*hinge_gamma)(const double *q, const double *qd, const double *p, double *gamma_h);
+    /* HINGE_PROPERTIES of each hinge (SI; nan: not given), shape (NH, NHP). */
+    void (*hinge_properties)(const double *p, double *H);
+    /* The named outputs, shape (NOUT,). */
+    void (*outputs)(const double *q, const double *qd, double t, const double *p, double *y);
+    /* Kinetic energy and each potential (J), in the order of ENERGIES. */
+    void (*energy)(const double *q, const double *qd, double t, const double *p, double *E);
+    /* Power removed by each element of DISSIPATORS (W). */
+    void (*dissipation)(const double *q, const double *qd, double t, const double *p, double *P);
 } dep_model;
 
 #endif /* DEPSIM_MODEL_H */

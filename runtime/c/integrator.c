@@ -190,7 +190,7 @@ static int advance(dep_run *run, double *h)
 
 dep_settings dep_default_settings(const dep_model *model)
 {
-    dep_settings settings = {model->t_end, model->dt_out, model->tol, 1};
+    dep_settings settings = {model->t_end, model->dt_out, model->tol, 1, NULL, NULL};
     return settings;
 }
 
@@ -218,14 +218,12 @@ static int setup_system(dep_run *run, const double *params)
     }
     memcpy(run->p, params != NULL ? params : m->parameter_defaults, (size_t)m->np * sizeof(double));
     if ((status = dep_check_settings(m, run->p, &run->settings, run->error)) != DEP_OK
-        || (status = dep_system_init(&run->system, m, run->p, arena, run->error)) != DEP_OK) {
+        || (status = dep_system_init(&run->system, m, run->p, run->settings.mechanics != 0,
+                                     arena, run->error)) != DEP_OK) {
         return status;
     }
-    if (run->settings.mechanics
-        && (dep_mechanism_create(&mechanism, m, run->p, arena) != DEP_OK
-            || (mechanism != NULL
-                && dep_mechanism_bind(mechanism, &run->system,
-                                      dep_constraint_tolerance(run->settings.tol), arena)))) {
+    if (dep_mechanism_create(&mechanism, &run->system,
+                             dep_constraint_tolerance(run->settings.tol), arena) != DEP_OK) {
         return dep_plain_error(run->error, DEP_MEMORY_ERROR, "out of memory");
     }
     run->nq = m->nq;
@@ -254,7 +252,8 @@ static int setup(dep_run *run, const double *params, const dep_event *events, in
         || dep_state_init(&run->state, m->nq, run->cs.capacity, run->nd, arena)
         || dep_outcome_init(&run->outcome, m->nq, run->cs.capacity, run->nd, arena)
         || dep_outcome_init(&run->fired, m->nq, run->cs.capacity, run->nd, arena)
-        || dep_loads_init(&run->loads, m, arena) || dep_change_init(&run->change, m->nq, m->nh, arena)) {
+        || dep_loads_init(&run->loads, m, arena)
+        || dep_change_init(&run->change, m->nq, m->nh, arena)) {
         return dep_plain_error(run->error, DEP_MEMORY_ERROR, "out of memory");
     }
     status = dep_recorder_init(&run->recorder, &run->system, &run->settings, run->cs.capacity,
@@ -281,10 +280,23 @@ static int setup(dep_run *run, const double *params, const dep_event *events, in
         ? dep_plain_error(run->error, DEP_MEMORY_ERROR, "out of memory") : DEP_OK;
 }
 
-/* IterativeRun.run: from the assembled initial state to t_end or a stopping event. */
+/* The progress callback, if any: DEP_INTERRUPTED when it asks to stop. */
+static int report_progress(dep_run *run)
+{
+    const dep_settings *s = &run->settings;
+    if (s->progress == NULL || s->progress(s->progress_context, run->state.t) == 0) {
+        return DEP_OK;
+    }
+    char message[80];
+    snprintf(message, sizeof message, "stopped at t = %.9g s", run->state.t);
+    return dep_plain_error(run->error, DEP_INTERRUPTED, message);
+}
+
+/* From the assembled initial state to t_end or a stopping event. */
 static int integrate_run(dep_run *run)
 {
     double h;
+    long long steps = 0;
     int status, stop = 0;
     run->model->initial_state(run->p, run->q, run->qd);
     if ((status = dep_run_start(run, run->q, run->qd)) != DEP_OK
@@ -296,49 +308,41 @@ static int integrate_run(dep_run *run)
     h = first_step(run);
     while (run->settings.t_end - run->state.t > run->h_min && !stop) {
         if ((status = advance(run, &h)) != DEP_OK
-            || (status = dep_run_after_step(run, &stop)) != DEP_OK) {
+            || (status = dep_run_after_step(run, &stop)) != DEP_OK
+            || (++steps % DEP_PROGRESS_STEPS == 0 && (status = report_progress(run)) != DEP_OK)) {
             return status;
+        }
+    }
+    return report_progress(run);
+}
+
+/* The event records into the result (malloc'ed). */
+static int finish_events(dep_run *run, dep_result *result)
+{
+    result->n_events = run->n_records;
+    result->events = calloc((size_t)(run->n_records ? run->n_records : 1), sizeof *result->events);
+    if (result->events == NULL) {
+        return DEP_MEMORY_ERROR;
+    }
+    for (int k = 0; k < run->n_records; ++k) {
+        const dep_event_record *r = &run->records[k];
+        result->events[k] = *r;
+        result->events[k].data = malloc((size_t)(r->n_data ? r->n_data : 1) * sizeof(dep_datum));
+        if (result->events[k].data == NULL) {
+            result->events[k].n_data = 0;
+            return DEP_MEMORY_ERROR;
+        }
+        if (r->n_data) {
+            memcpy(result->events[k].data, r->data, (size_t)r->n_data * sizeof(dep_datum));
         }
     }
     return DEP_OK;
 }
 
-/* The events, the latch hinges and the peak loads into the result (malloc'ed). */
-static int finish_mechanics(dep_run *run, dep_result *result)
-{
-    const dep_mechanism *m = run->system.mechanism;
-    int nh = run->model->nh, failed = 0;
-    result->n_events = run->n_records;
-    result->events = calloc((size_t)(run->n_records ? run->n_records : 1), sizeof *result->events);
-    result->latch_hinges = calloc((size_t)(m != NULL ? m->n_hinges : 1), sizeof(int));
-    result->peaks = calloc((size_t)(nh ? nh : 1), sizeof *result->peaks);
-    failed = result->events == NULL || result->latch_hinges == NULL || result->peaks == NULL;
-    for (int k = 0; !failed && k < run->n_records; ++k) {
-        const dep_event_record *r = &run->records[k];
-        result->events[k] = *r;
-        result->events[k].data = malloc((size_t)(r->n_data ? r->n_data : 1) * sizeof(dep_datum));
-        failed = result->events[k].data == NULL;
-        if (!failed && r->n_data) {
-            memcpy(result->events[k].data, r->data, (size_t)r->n_data * sizeof(dep_datum));
-        }
-    }
-    for (int i = 0; !failed && m != NULL && i < m->n_hinges; ++i) {
-        if (m->hinges[i].has_latch) {
-            result->latch_hinges[result->n_latch_hinges++] = m->hinges[i].index;
-        }
-    }
-    for (int k = 0; !failed && k < nh; ++k) {
-        dep_peak peak = {run->loads.force[k], run->loads.t_force[k], run->loads.torque[k],
-                         run->loads.t_torque[k]};
-        result->peaks[k] = peak;
-    }
-    return failed ? DEP_MEMORY_ERROR : DEP_OK;
-}
-
 static int finish(dep_run *run, dep_result *result)
 {
     if (dep_recorder_result(&run->recorder, result) != DEP_OK
-        || finish_mechanics(run, result) != DEP_OK) {
+        || finish_events(run, result) != DEP_OK) {
         dep_result_free(result);
         return dep_plain_error(run->error, DEP_MEMORY_ERROR, "out of memory");
     }
@@ -348,6 +352,10 @@ static int finish(dep_run *run, dep_result *result)
     result->dt_out = run->settings.dt_out;
     result->stats = dep_tally_stats(&run->tally, run->stepper.integrations,
                                     run->stepper.rhs_evaluations);
+    if (dep_summarize(run->model, &run->system, &run->loads, result) != DEP_OK) {
+        dep_result_free(result);
+        return dep_plain_error(run->error, DEP_MEMORY_ERROR, "out of memory");
+    }
     return DEP_OK;
 }
 

@@ -287,7 +287,7 @@ int main(int argc, char **argv)
     if (o.out != NULL) {
         status = save_csv(&result, o.out);
         if (status == EXIT_OK) {
-            dep_report(&depsim_model, &result, stdout);
+            fputs(result.report, stdout);
         }
     } else {
         status = write_csv(&result, stdout);

@@ -1,9 +1,7 @@
-/* mechanism.c: the runtime's forces of the hinges' mechanics. Port of deployment.py's
- * MechanismSystem with friction.py and the formulas of latches.py (docs/deployment.md).
- *
- * While a hinge slides with stick-slip friction, is locked (its tanh friction cancelled) or
- * presses a compliant latch, the runtime adds its torque to the model's force, and its
- * dissipated power and spring energy to the model's.
+/* mechanism.c: the hinge torques the integrator applies itself, in each hinge's mode
+ * (docs/deployment.md): Coulomb friction, the one definition of it, and the push of a
+ * compliant latch in contact; their dissipated powers and the latches' spring energies.
+ * The generated model's force holds no hinge friction: it depends on the mode.
  */
 #include <math.h>
 #include <stdio.h>
@@ -11,20 +9,20 @@
 
 #include "runtime.h"
 
-/* ---- friction.py and latches.py: the formulas ------------------------------------------- */
+/* ---- the laws ------------------------------------------------------------------------------ */
 
-/* +kinetic tanh(rate / slip_rate) cancels the model's regularised law; while sliding
-   -direction kinetic is the exact Coulomb torque (N m). */
-static double friction_torque(double rate, double kinetic, double slip_rate, double direction,
-                              int sliding)
+/* A hinge's Coulomb friction torque on its angle (N m) at `rate` (rad/s): none while a latch,
+   a stop or its stick row holds it (the row carries the torque); the exact -s friction while
+   it slides in direction s with static friction; else -friction tanh(rate / slip_rate). */
+double dep_friction_torque(const dep_hinge_mechanics *h, double rate)
 {
-    double cancel = kinetic != 0.0 ? kinetic * tanh(rate / slip_rate) : 0.0;
-    return sliding ? cancel - direction * kinetic : cancel;
-}
-
-static double friction_power(double rate, double kinetic, double direction, int sliding)
-{
-    return sliding ? direction * kinetic * rate : 0.0;
+    if (h->kinetic == 0.0 || dep_hinge_locked(h) || h->stuck) {
+        return 0.0;
+    }
+    if (h->has_static) {
+        return -h->direction * h->kinetic;
+    }
+    return -h->kinetic * tanh(rate / h->slip_rate);
 }
 
 /* A compliant latch's push max(0, k delta + c delta') (N m) for the overshoot delta. */
@@ -44,102 +42,97 @@ static double contact_energy(double overshoot, double stiffness)
     return 0.5 * stiffness * (pressed * pressed);
 }
 
-/* ---- forces, powers and energies of the runtime terms ------------------------------------ */
-
-int dep_mechanism_forcing(const dep_mechanism *m)
+static double overshoot(const dep_hinge_mechanics *h, double angle)
 {
-    for (int i = 0; i < m->n_hinges; ++i) {
-        if (dep_hinge_owns_friction(&m->hinges[i]) || m->hinges[i].latch_state == DEP_CONTACT) {
+    return h->latch_side * (angle - h->latch);
+}
+
+/* ---- torques, powers and energies of a system ------------------------------------------------ */
+
+/* Whether any hinge torque acts now (friction anywhere, or a latch pressed). */
+int dep_hinge_forcing(const dep_system *system)
+{
+    if (system->n_friction > 0) {
+        return 1;
+    }
+    for (int i = 0; system->n_compliant > 0 && i < system->nh; ++i) {
+        if (system->hinges[i].latch_state == DEP_CONTACT) {
             return 1;
         }
     }
     return 0;
 }
 
-/* The runtime torques on the hinge angles (nh), to add as J^T tau to the force. */
-void dep_mechanism_torques(dep_mechanism *m, const double *q, const double *qd, double *tau)
+/* The torques on the hinge angles (nh), to add as J^T tau to the model's force. */
+void dep_hinge_torques(const dep_system *system, const double *q, const double *qd,
+                       double *tau)
 {
+    const dep_model *model = system->model;
     int have_angles = 0;
-    memset(tau, 0, (size_t)m->model->nh * sizeof *tau);
-    m->model->hinge_rates(q, qd, m->p, m->rates);
-    for (int i = 0; i < m->n_hinges; ++i) {
-        const dep_hinge_mechanics *h = &m->hinges[i];
-        double rate = m->rates[h->index];
-        if (dep_hinge_owns_friction(h)) {
-            tau[h->index] += friction_torque(rate, h->kinetic, h->slip_rate, h->direction,
-                                             dep_hinge_sliding(h));
+    memset(tau, 0, (size_t)system->nh * sizeof *tau);
+    model->hinge_rates(q, qd, system->p, system->rates);
+    for (int i = 0; i < system->nh; ++i) {
+        const dep_hinge_mechanics *h = &system->hinges[i];
+        double rate = system->rates[i];
+        if (h->has_friction) {
+            tau[i] += dep_friction_torque(h, rate);
         }
         if (h->latch_state == DEP_CONTACT) {
             if (!have_angles) {
-                m->model->hinge_angles(q, m->p, m->angles);
+                model->hinge_angles(q, system->p, system->angles);
                 have_angles = 1;
             }
+            tau[i] -= h->latch_side * contact_torque(overshoot(h, system->angles[i]),
+                                                     h->latch_side * rate,
+                                                     h->latch_stiffness, h->latch_damping);
+        }
+    }
+}
+
+/* After the model's dissipated powers (power[0..model nd), filled by the caller): each
+   friction hinge's -tau rate (>= 0), then each compliant latch's. */
+void dep_hinge_dissipation(const dep_system *system, const double *q, const double *qd,
+                           double *power)
+{
+    int n = system->model->nd;
+    if (system->n_friction == 0 && system->n_compliant == 0) {
+        return;
+    }
+    system->model->hinge_rates(q, qd, system->p, system->rates);
+    for (int i = 0; i < system->nh; ++i) {
+        const dep_hinge_mechanics *h = &system->hinges[i];
+        if (h->has_friction) {
+            power[n++] = -dep_friction_torque(h, system->rates[i]) * system->rates[i];
+        }
+    }
+    if (system->n_compliant == 0) {
+        return;
+    }
+    system->model->hinge_angles(q, system->p, system->angles);
+    for (int i = 0; i < system->nh; ++i) {
+        const dep_hinge_mechanics *h = &system->hinges[i];
+        if (h->compliant) {
             double side = h->latch_side;
-            double delta = side * (m->angles[h->index] - h->latch), delta_rate = side * rate;
-            tau[h->index] -= side * contact_torque(delta, delta_rate, h->latch_stiffness,
-                                                   h->latch_damping);
-        }
-    }
-}
-
-/* After the model's dissipated powers (power[0..nd), filled by the caller): the power of
-   the friction the runtime owns in place of its "friction.<h>", then each compliant
-   latch's. */
-void dep_mechanism_dissipation(dep_mechanism *m, const double *q, const double *qd,
-                               double *power)
-{
-    const dep_model *model = m->model;
-    int n = model->nd, owned = 0;
-    char name[DEP_NAME_MAX + 16];
-    for (int i = 0; i < m->n_hinges; ++i) {
-        owned |= dep_hinge_owns_friction(&m->hinges[i]);
-    }
-    if (owned || m->n_compliant > 0) {
-        model->hinge_rates(q, qd, m->p, m->rates);
-    }
-    for (int i = 0; owned && i < m->n_hinges; ++i) {
-        const dep_hinge_mechanics *h = &m->hinges[i];
-        if (!dep_hinge_owns_friction(h)) {
-            continue;
-        }
-        snprintf(name, sizeof name, "friction.%s", h->name);
-        for (int d = 0; d < n; ++d) {
-            if (strcmp(model->dissipator_names[d], name) == 0) {
-                power[d] = friction_power(m->rates[h->index], h->kinetic, h->direction,
-                                          dep_hinge_sliding(h));
-            }
-        }
-    }
-    if (m->n_compliant == 0) {
-        return;
-    }
-    model->hinge_angles(q, m->p, m->angles);
-    for (int i = 0; i < m->n_hinges; ++i) {
-        const dep_hinge_mechanics *h = &m->hinges[i];
-        if (h->compliant) {
-            double side = h->latch_side, rate = m->rates[h->index];
-            double delta = side * (m->angles[h->index] - h->latch);
             power[n++] = h->latch_state != DEP_CONTACT ? 0.0
-                : contact_power(delta, side * rate, h->latch_stiffness, h->latch_damping);
+                : contact_power(overshoot(h, system->angles[i]), side * system->rates[i],
+                                h->latch_stiffness, h->latch_damping);
         }
     }
 }
 
-/* Compliant latches' spring energies (J), after the model's `ne` terms in `energy`. */
-void dep_mechanism_energy(dep_mechanism *m, const double *q, const double *qd, double *energy)
+/* After the model's energies (energy[0..model ne)): each compliant latch's spring energy. */
+void dep_hinge_energy(const dep_system *system, const double *q, double *energy)
 {
-    int n = m->model->ne;
-    (void)qd;
-    if (m->n_compliant == 0) {
+    int n = system->model->ne;
+    if (system->n_compliant == 0) {
         return;
     }
-    m->model->hinge_angles(q, m->p, m->angles);
-    for (int i = 0; i < m->n_hinges; ++i) {
-        const dep_hinge_mechanics *h = &m->hinges[i];
+    system->model->hinge_angles(q, system->p, system->angles);
+    for (int i = 0; i < system->nh; ++i) {
+        const dep_hinge_mechanics *h = &system->hinges[i];
         if (h->compliant) {
-            double delta = h->latch_side * (m->angles[h->index] - h->latch);
             energy[n++] = h->latch_state != DEP_CONTACT ? 0.0
-                : contact_energy(delta, h->latch_stiffness);
+                : contact_energy(overshoot(h, system->angles[i]), h->latch_stiffness);
         }
     }
 }
@@ -162,10 +155,8 @@ void dep_mechanism_hinge_torques(dep_mechanism *m, const double *q, const double
             have = 1;
         }
         double side = h->latch_side;
-        double push = contact_torque(side * (m->angles[h->index] - h->latch),
-                                     side * m->rates[h->index], h->latch_stiffness,
-                                     h->latch_damping);
-        tau[h->index] = -side * push;
+        double push = contact_torque(overshoot(h, m->angles[i]), side * m->rates[i],
+                                     h->latch_stiffness, h->latch_damping);
+        tau[i] = -side * push;
     }
 }
-

@@ -297,7 +297,9 @@ void dep_result_free(dep_result *result)
         free(result->events[k].data);
     }
     free(result->events);
-    free(result->latch_hinges);
-    free(result->peaks);
+    free(result->peak_loads);
+    free(result->deployment.latch_hinges);
+    free(result->deployment.latches);
+    free(result->report);
     memset(result, 0, sizeof *result);
 }

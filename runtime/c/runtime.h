@@ -48,20 +48,50 @@ void dep_mass_solve(const dep_mass *mass, const double *b, double *x); /* x = M^
 
 struct dep_mechanism;
 
-/* The model bound to p, with the mechanism's runtime terms when there is one (Python's
-   System / MechanismSystem): nd, ne and their names include the mechanism's. */
+/* A hinge's runtime properties (from hinge_properties) and its mode. */
+enum dep_latch_state { DEP_OPEN, DEP_LATCHED, DEP_CONTACT, DEP_APART };
+enum dep_kind { DEP_KIND_LATCH, DEP_KIND_STOP_MIN, DEP_KIND_STOP_MAX, DEP_KIND_STICK };
+enum dep_stop_state { DEP_STOP_NONE = 0, DEP_STOP_MIN = 1, DEP_STOP_MAX = 2 };
+
+typedef struct dep_hinge_mechanics {
+    int index;
+    const char *name;
+    int has_latch, compliant, has_stop_min, has_stop_max, has_static, has_friction;
+    double latch, latch_stiffness, latch_damping, stop_min, stop_max;
+    double kinetic, static_friction, slip_rate; /* friction (N m), static (N m), rad/s */
+    double latch_side, direction;
+    int latch_state, stop, stuck; /* enum dep_latch_state, enum dep_stop_state, 0/1 */
+} dep_hinge_mechanics;
+
+/* The model bound to p, with the forces the integrator applies itself: each hinge's Coulomb
+   friction in its mode and the compliant latches' contact torques. Its dissipators are the
+   model's, then "friction.<h>" for each hinge with friction, then "latch.<h>" for each
+   compliant latch; its energies the model's, then "latch.<h>". */
 typedef struct dep_system {
     const dep_model *model;
     const double *p;
     int nq, nd, nh, ne;
     dep_mass mass;
-    struct dep_mechanism *mechanism; /* NULL: none */
+    dep_hinge_mechanics *hinges;     /* nh, every hinge */
+    int n_friction, n_compliant;     /* hinges with friction, compliant latches */
+    struct dep_mechanism *mechanism; /* NULL: no latch, stop or stick-slip (or mechanics off) */
     const char **dissipator_names;   /* nd */
     const char **energy_names;       /* ne */
+    double *angles, *rates, *tau, *hinge_jacobian; /* scratch: nh, nh, nh, nh x nq */
 } dep_system;
 
+/* mechanics 0: every hinge free (friction by the regularised law, no latch or stop modes). */
 int dep_system_init(dep_system *system, const dep_model *model, const double *p,
-                    dep_arena *arena, dep_error *error);
+                    int mechanics, dep_arena *arena, dep_error *error);
+
+/* mechanism.c: the hinge torques the integrator applies (friction, compliant contact). */
+double dep_friction_torque(const dep_hinge_mechanics *h, double rate);
+int dep_hinge_forcing(const dep_system *system);
+void dep_hinge_torques(const dep_system *system, const double *q, const double *qd,
+                       double *tau);
+void dep_hinge_dissipation(const dep_system *system, const double *q, const double *qd,
+                           double *power);
+void dep_hinge_energy(const dep_system *system, const double *q, double *energy);
 const char *dep_joint_kind(const dep_system *system, const char *joint);
 void dep_system_force(const dep_system *system, const double *q, const double *qd, double t,
                       double *f);
@@ -348,6 +378,11 @@ int dep_record(dep_recorder *rec, double t, const double *q, const double *qd, c
 double dep_recorder_last_time(const dep_recorder *rec);
 int dep_recorder_result(dep_recorder *rec, dep_result *result);
 
+/* ---- summary.c: the deployment, the peak loads and the summary text of a result --------- */
+
+int dep_summarize(const dep_model *model, const dep_system *system, const dep_loads *loads,
+                  dep_result *result);
+
 /* ---- tally.c: work and accuracy counters ----------------------------------------------- */
 
 typedef struct dep_tally {
@@ -365,20 +400,6 @@ dep_stats dep_tally_stats(const dep_tally *tally, long long integrations,
 
 /* ---- deployment.c, mechanism.c: latches, hard stops, stick-slip (deployment.py) --------- */
 
-enum dep_latch_state { DEP_OPEN, DEP_LATCHED, DEP_CONTACT, DEP_APART };
-enum dep_kind { DEP_KIND_LATCH, DEP_KIND_STOP_MIN, DEP_KIND_STOP_MAX, DEP_KIND_STICK };
-enum dep_stop_state { DEP_STOP_NONE = 0, DEP_STOP_MIN = 1, DEP_STOP_MAX = 2 };
-
-typedef struct dep_hinge_mechanics {
-    int index;
-    const char *name;
-    int has_latch, compliant, has_stop_min, has_stop_max, has_static;
-    double latch, latch_stiffness, latch_damping, stop_min, stop_max;
-    double kinetic, static_friction, slip_rate;
-    double latch_side, direction;
-    int latch_state, stop, stuck; /* enum dep_latch_state, enum dep_stop_state, 0/1 */
-} dep_hinge_mechanics;
-
 typedef struct dep_mechanism_event {
     struct dep_mechanism *mechanism;
     dep_hinge_mechanics *hinge;
@@ -391,26 +412,19 @@ typedef struct dep_mechanism {
     const double *p;
     const dep_system *system;
     double tol; /* the passes' tolerance */
-    int n_hinges, n_events, n_compliant, n_latches;
-    dep_hinge_mechanics *hinges;
+    int n_hinges, n_events, n_latches;
+    dep_hinge_mechanics *hinges; /* the system's, every hinge */
     dep_mechanism_event *info;
     dep_event *events;
-    double *angles, *rates, *tau, *hinge_jacobian, *base; /* scratch */
+    double *angles, *rates; /* scratch, nh */
     struct dep_settle *settle;
 } dep_mechanism;
 
-int dep_mechanism_create(dep_mechanism **out, const dep_model *model, const double *p,
+/* *out is NULL when no hinge has a latch, a stop or static friction. */
+int dep_mechanism_create(dep_mechanism **out, dep_system *system, double tol,
                          dep_arena *arena);
-int dep_mechanism_bind(dep_mechanism *m, const dep_system *system, double tol,
-                       dep_arena *arena);
 int dep_hinge_locked(const dep_hinge_mechanics *h);   /* by a latch or a stop */
 int dep_hinge_sliding(const dep_hinge_mechanics *h);  /* stick-slip, slipping */
-int dep_hinge_owns_friction(const dep_hinge_mechanics *h);
-int dep_mechanism_forcing(const dep_mechanism *m);
-void dep_mechanism_torques(dep_mechanism *m, const double *q, const double *qd, double *tau);
-void dep_mechanism_dissipation(dep_mechanism *m, const double *q, const double *qd,
-                               double *power);
-void dep_mechanism_energy(dep_mechanism *m, const double *q, const double *qd, double *energy);
 void dep_mechanism_hinge_torques(dep_mechanism *m, const double *q, const double *qd,
                                  const dep_constraints *cs, const double *lam, double *tau);
 double dep_mechanism_angle(dep_mechanism *m, const dep_hinge_mechanics *h, const double *q);

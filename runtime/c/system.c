@@ -272,21 +272,135 @@ void dep_mass_solve(const dep_mass *mass, const double *b, double *x)
     }
 }
 
-int dep_system_init(dep_system *system, const dep_model *model, const double *p,
-                    dep_arena *arena, dep_error *error)
+/* The hinge properties the integrator applies, by name (columns of hinge_properties). */
+static const char *const PROPERTIES[8] = {"latch", "latch_stiffness", "latch_damping",
+                                          "stop_min", "stop_max", "friction",
+                                          "static_friction", "slip_rate"};
+
+/* A hinge's properties from its row of hinge_properties (NAN: not given), free. */
+static void read_hinge(dep_hinge_mechanics *h, const double *v, int mechanics)
 {
+    h->has_latch = mechanics && !isnan(v[0]);
+    h->latch = v[0];
+    h->compliant = h->has_latch && !isnan(v[1]);
+    h->latch_stiffness = v[1];
+    h->latch_damping = isnan(v[2]) ? 0.0 : v[2];
+    h->has_stop_min = mechanics && !isnan(v[3]);
+    h->stop_min = v[3];
+    h->has_stop_max = mechanics && !isnan(v[4]);
+    h->stop_max = v[4];
+    h->has_friction = !isnan(v[5]);
+    h->kinetic = isnan(v[5]) ? 0.0 : v[5];
+    h->has_static = mechanics && !isnan(v[6]);
+    h->static_friction = v[6];
+    h->slip_rate = v[7];
+    h->latch_side = 1.0;
+    h->direction = 1.0;
+    h->latch_state = DEP_OPEN;
+    h->stop = DEP_STOP_NONE;
+    h->stuck = 0;
+}
+
+/* Every hinge's properties; a SETTINGS error for a friction law without a positive
+   slip rate. */
+static int read_hinges(dep_system *system, int mechanics, dep_arena *arena, dep_error *error)
+{
+    const dep_model *model = system->model;
+    int nh = model->nh, nhp = model->nhp, column[8];
+    double *table = dep_doubles(arena, (size_t)nh * (size_t)nhp), v[8];
+    system->hinges = dep_bytes(arena, (size_t)(nh ? nh : 1) * sizeof *system->hinges);
+    if (arena->failed) {
+        return dep_plain_error(error, DEP_MEMORY_ERROR, "out of memory");
+    }
+    for (int k = 0; k < 8; ++k) {
+        column[k] = -1;
+        for (int c = 0; c < nhp; ++c) {
+            column[k] = strcmp(model->hinge_property_names[c], PROPERTIES[k]) == 0 ? c : column[k];
+        }
+    }
+    if (nh > 0 && nhp > 0) {
+        model->hinge_properties(system->p, table);
+    }
+    for (int i = 0; i < nh; ++i) {
+        dep_hinge_mechanics *h = &system->hinges[i];
+        for (int k = 0; k < 8; ++k) {
+            v[k] = column[k] >= 0 ? table[(size_t)i * (size_t)nhp + (size_t)column[k]] : NAN;
+        }
+        read_hinge(h, v, mechanics);
+        h->index = i;
+        h->name = model->hinge_names[i];
+        if (h->has_friction && !(h->slip_rate > 0)) {
+            char message[DEP_NAME_MAX + 120];
+            snprintf(message, sizeof message, "hinge %s: friction needs a positive slip_rate, "
+                     "got %g rad/s", h->name, h->slip_rate);
+            return dep_plain_error(error, DEP_SETTINGS_ERROR, message);
+        }
+        system->n_friction += h->has_friction;
+        system->n_compliant += h->compliant;
+    }
+    return DEP_OK;
+}
+
+/* The dissipator and energy names: the model's, then "friction.<h>", then "latch.<h>". */
+static int name_terms(dep_system *s, dep_arena *arena)
+{
+    const dep_model *model = s->model;
+    int d = 0, e = 0;
+    s->nd = model->nd + s->n_friction + s->n_compliant;
+    s->ne = model->ne + s->n_compliant;
+    s->dissipator_names = dep_bytes(arena, (size_t)(s->nd ? s->nd : 1) * sizeof(char *));
+    s->energy_names = dep_bytes(arena, (size_t)(s->ne ? s->ne : 1) * sizeof(char *));
+    if (arena->failed) {
+        return DEP_MEMORY_ERROR;
+    }
+    for (; d < model->nd; ++d) {
+        s->dissipator_names[d] = model->dissipator_names[d];
+    }
+    for (; e < model->ne; ++e) {
+        s->energy_names[e] = model->energy_names[e];
+    }
+    for (int pass = 0; pass < 2; ++pass) { /* friction first, then compliant latches */
+        for (int i = 0; i < s->nh; ++i) {
+            const dep_hinge_mechanics *h = &s->hinges[i];
+            if (pass == 0 ? !h->has_friction : !h->compliant) {
+                continue;
+            }
+            char *name = dep_bytes(arena, strlen(h->name) + 10);
+            if (name == NULL) {
+                return DEP_MEMORY_ERROR;
+            }
+            sprintf(name, "%s.%s", pass == 0 ? "friction" : "latch", h->name);
+            s->dissipator_names[d++] = name;
+            if (pass == 1) {
+                s->energy_names[e++] = name;
+            }
+        }
+    }
+    return DEP_OK;
+}
+
+int dep_system_init(dep_system *system, const dep_model *model, const double *p,
+                    int mechanics, dep_arena *arena, dep_error *error)
+{
+    int nh = model->nh, status;
     memset(system, 0, sizeof *system);
     system->model = model;
     system->p = p;
     system->nq = model->nq;
-    system->nd = model->nd;
-    system->nh = model->nh;
-    system->ne = model->ne;
-    system->dissipator_names = (const char **)model->dissipator_names;
-    system->energy_names = (const char **)model->energy_names;
+    system->nh = nh;
     system->mass.n = model->nq;
     system->mass.matrix = dep_doubles(arena, (size_t)model->nq * (size_t)model->nq);
+    system->angles = dep_doubles(arena, (size_t)nh);
+    system->rates = dep_doubles(arena, (size_t)nh);
+    system->tau = dep_doubles(arena, (size_t)nh);
+    system->hinge_jacobian = dep_doubles(arena, (size_t)nh * (size_t)model->nq);
     if (arena->failed) {
+        return dep_plain_error(error, DEP_MEMORY_ERROR, "out of memory");
+    }
+    if ((status = read_hinges(system, mechanics, arena, error)) != DEP_OK) {
+        return status;
+    }
+    if (name_terms(system, arena) != DEP_OK) {
         return dep_plain_error(error, DEP_MEMORY_ERROR, "out of memory");
     }
     model->mass_matrix(p, system->mass.matrix);
@@ -309,24 +423,23 @@ const char *dep_joint_kind(const dep_system *system, const char *joint)
     return "joint";
 }
 
-/* ---- the forces, powers and energies of a run (MechanismSystem) --------------------------- */
+/* ---- the forces, powers and energies of a run -------------------------------------------- */
 
-/* f (nq): the model's force plus, while the mechanism has runtime torques, J_h^T tau. */
+/* f (nq): the model's force plus J_h^T tau of the hinge torques (mechanism.c). */
 void dep_system_force(const dep_system *system, const double *q, const double *qd, double t,
                       double *f)
 {
     const dep_model *model = system->model;
-    dep_mechanism *m = system->mechanism;
     model->force(q, qd, t, system->p, f);
-    if (m == NULL || !dep_mechanism_forcing(m)) {
+    if (!dep_hinge_forcing(system)) {
         return;
     }
-    dep_mechanism_torques(m, q, qd, m->tau);
-    model->hinge_jacobian(q, system->p, m->hinge_jacobian);
+    dep_hinge_torques(system, q, qd, system->tau);
+    model->hinge_jacobian(q, system->p, system->hinge_jacobian);
     for (int j = 0; j < system->nq; ++j) {
         double sum = 0.0;
-        for (int k = 0; k < model->nh; ++k) {
-            sum += m->hinge_jacobian[k * system->nq + j] * m->tau[k];
+        for (int k = 0; k < system->nh; ++k) {
+            sum += system->hinge_jacobian[k * system->nq + j] * system->tau[k];
         }
         f[j] += sum;
     }
@@ -339,9 +452,7 @@ void dep_system_dissipation(const dep_system *system, const double *q, const dou
     if (system->model->nd > 0) {
         system->model->dissipation(q, qd, t, system->p, power);
     }
-    if (system->mechanism != NULL) {
-        dep_mechanism_dissipation(system->mechanism, q, qd, power);
-    }
+    dep_hinge_dissipation(system, q, qd, power);
 }
 
 /* Kinetic energy and each potential (ne), J. */
@@ -349,7 +460,5 @@ void dep_system_energy(const dep_system *system, const double *q, const double *
                        double *energy)
 {
     system->model->energy(q, qd, t, system->p, energy);
-    if (system->mechanism != NULL) {
-        dep_mechanism_energy(system->mechanism, q, qd, energy);
-    }
+    dep_hinge_energy(system, q, energy);
 }

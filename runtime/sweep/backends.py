@@ -209,7 +209,7 @@ def run_dask(ref: ModuleRef, config: RunConfig, matrix: np.ndarray,
         from distributed.scheduler import KilledWorker
     except ImportError:
         raise StudyError("a Dask scheduler needs dask[distributed]: "
-                         "pip install 'dask[distributed]'") from None
+                         "pip install 'depsim[studies]'") from None
     own = not isinstance(scheduler, Client)
     if own:
         try:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import importlib.util
 import os
 import sys
 import time
@@ -106,6 +107,7 @@ def run_study(study: Study, *, workers: int | None = None, scheduler=None,
     if resume and store is None:
         raise SweepSpecError("resume needs the output file of the interrupted study "
                              "(store=..., -o FILE)")
+    require_studies()
     ref = ModuleRef.from_path(study.module_path)
     module = load_module(ref)
     design = study.design
@@ -197,6 +199,17 @@ def run_study(study: Study, *, workers: int | None = None, scheduler=None,
         write_dataset(ds, store)
         checkpoint.remove()
     return ds
+
+
+STUDY_PACKAGES = ("xarray", "h5netcdf", "h5py")  # the `studies` extra (dask: its schedulers)
+
+
+def require_studies() -> None:
+    """SweepSpecError naming what to install when the `studies` extra is missing."""
+    missing = [name for name in STUDY_PACKAGES if importlib.util.find_spec(name) is None]
+    if missing:
+        raise SweepSpecError(f"parameter studies need {', '.join(missing)}, which this "
+                             "installation lacks: pip install 'depsim[studies]'")
 
 
 def _execute(ref, config, matrix, todo, workers, scheduler, batch_size):

@@ -13,7 +13,6 @@ import importlib.util
 import math
 import os
 import sys
-import tempfile
 import time
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
@@ -60,12 +59,10 @@ _MODULES: dict[str, ModuleType] = {}  # sha256 -> module, one load per process
 
 
 def _cache_root() -> Path:
-    """Where workers keep module files sent as source: $DEPSIM_CACHE or the temp folder."""
-    root = os.environ.get("DEPSIM_CACHE")
-    if root:
-        return Path(root) / "sweep-modules"
-    user = os.getuid() if hasattr(os, "getuid") else "user"
-    return Path(tempfile.gettempdir()) / f"depsim-{user}" / "sweep-modules"
+    """Where workers keep module files sent as source: the cache's sweep-modules folder."""
+    from depsim.runtime.core import cache_root
+
+    return cache_root() / "sweep-modules"
 
 
 def load_module(ref: ModuleRef | str | os.PathLike) -> ModuleType:
@@ -92,7 +89,7 @@ def load_module(ref: ModuleRef | str | os.PathLike) -> ModuleType:
             tmp.write_bytes(ref.source)
             os.replace(tmp, path)
     if path.suffix in (".so", ".dylib", ".dll"):  # a C target's shared library
-        from depsim.runtime.ctarget import load_c_module
+        from depsim.runtime.binding import load_c_module
 
         module = _MODULES[ref.sha256] = load_c_module(path)
         return module

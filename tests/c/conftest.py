@@ -18,7 +18,7 @@ from codegen_cases import build, case_names  # noqa: E402
 from depsim.codegen import compile_numpy, derive, load_generated  # noqa: E402
 from depsim.codegen.c_emit import compile_c  # noqa: E402
 from depsim.dsl import ir, load_model  # noqa: E402
-from depsim.runtime.ctarget import CModule, build_library, load_c_module  # noqa: E402
+from depsim.runtime.binding import CModule, build_model_library, load_c_module  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = sorted(path.stem for path in (ROOT / "examples").glob("*.dep"))
@@ -49,7 +49,7 @@ def built_cases(tmp_path_factory):
             root = tmp_path_factory.mktemp(case.replace(":", "_"))
             module = load_generated(compile_numpy(model, root / "numpy", system))
             folder = compile_c(model, root / "c", system)
-            library = build_library(folder)
+            library = build_model_library(folder)
             cache[case] = Built(case, model, folder, library, module, load_c_module(library))
         return cache[case]
 
@@ -74,7 +74,7 @@ def example_builds(tmp_path_factory):
             root = tmp_path_factory.mktemp(name)
             module = load_generated(compile_numpy(model, root / "numpy", system))
             folder = compile_c(model, root / "c", system)
-            library = build_library(folder)
+            library = build_model_library(folder)
             cache[name] = Built(name, model, folder, library, module, load_c_module(library))
         return cache[name]
 

@@ -7,13 +7,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from depsim.runtime import Event, EventResponse, HingeLock, SolverError, clib, simulate
+from depsim.runtime import Event, EventResponse, HingeLock, SolverError, simulate
 
 
 def both(built, params=None, **settings):
     """The exception each backend raises (or None)."""
     caught = []
-    for run, module in ((simulate, built.numpy), (clib.simulate, built.c)):
+    for run, module in ((simulate, built.numpy), (simulate, built.c)):
         try:
             run(module, params, **settings)
             caught.append(None)
@@ -77,7 +77,7 @@ def test_events_agree(example_builds):
     """A latch (HingeLock with a plastic impact, once) and a terminal event."""
     built = example_builds("pendulum")
     results = []
-    for run, module in ((simulate, built.numpy), (clib.simulate, built.c)):
+    for run, module in ((simulate, built.numpy), (simulate, built.c)):
         p = np.array(module.PARAMETER_DEFAULTS)
 
         def theta(t, q, qd, module=module, p=p):
@@ -108,7 +108,7 @@ def test_an_exception_in_an_event_function_is_raised_as_is(example_builds):
         raise ZeroDivisionError("broken event")
 
     with pytest.raises(ZeroDivisionError, match="broken event"):
-        clib.simulate(example_builds("pendulum").c, t_end=0.5, events=[Event("b", broken)])
+        simulate(example_builds("pendulum").c, t_end=0.5, events=[Event("b", broken)])
 
 
 def test_an_exception_in_a_callback_is_raised_as_is(example_builds):
@@ -117,4 +117,4 @@ def test_an_exception_in_a_callback_is_raised_as_is(example_builds):
 
     event = Event("half", lambda t, q, qd: t - 0.25, callback=callback)
     with pytest.raises(KeyError, match="from the callback"):
-        clib.simulate(example_builds("pendulum").c, t_end=0.5, events=[event])
+        simulate(example_builds("pendulum").c, t_end=0.5, events=[event])

@@ -16,8 +16,8 @@ import pytest
 
 from depsim.codegen import compile_c, compile_numpy, derive, load_generated
 from depsim.dsl import load_model
-from depsim.runtime import Event, clib, simulate
-from depsim.runtime.ctarget import load_folder
+from depsim.runtime import Event, simulate
+from depsim.runtime.binding import load_folder
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
@@ -47,7 +47,7 @@ def runs(tmp_path_factory):
             for name, value in changes.items():
                 p[numpy_module.PARAMETERS.index(name)] = value
             cache[case] = (numpy_module, c_module, p, simulate(numpy_module, p, t_end=t_end),
-                           clib.simulate(c_module, p, t_end=t_end))
+                           simulate(c_module, p, t_end=t_end))
         return cache[case]
 
     return get
@@ -86,8 +86,8 @@ def test_same_results(runs, case):
         scale = max(1.0, float(np.nanmax(np.abs(a), initial=0.0)))
         assert np.nanmax(np.abs(a - b), initial=0.0) <= 1e-8 * scale, name
     np.testing.assert_allclose(got.total_energy(), expected.total_energy(), rtol=0, atol=1e-8)
-    for hinge, peak in expected.step_peaks.items():
-        other = got.step_peaks[hinge]
+    for hinge, peak in expected.peak_loads.items():
+        other = got.peak_loads[hinge]
         assert abs(other.force - peak.force) <= 1e-8 * max(1.0, peak.force), hinge
         assert abs(other.torque - peak.torque) <= 1e-8 * max(1.0, peak.torque), hinge
 
@@ -105,7 +105,7 @@ def test_deployment_summary_agrees(runs):
 def test_without_mechanics(runs):
     numpy_module, c_module, p, _, _ = runs("pendulum_stops")
     expected = simulate(numpy_module, p, t_end=1.0, mechanics=False)
-    got = clib.simulate(c_module, p, t_end=1.0, mechanics=False)
+    got = simulate(c_module, p, t_end=1.0, mechanics=False)
     assert not got.events and got.dissipator_names == expected.dissipator_names
     np.testing.assert_allclose(got.outputs, expected.outputs, rtol=0, atol=1e-10)
 
@@ -114,7 +114,7 @@ def test_user_events_watching_multipliers(runs):
     """A user event with multipliers=True beside the mechanism's: stop when the pivot's
     vertical reaction first exceeds 30 N."""
     results = []
-    for run, module in ((simulate, runs("pendulum_stops")[0]), (clib.simulate,
+    for run, module in ((simulate, runs("pendulum_stops")[0]), (simulate,
                                                                 runs("pendulum_stops")[1])):
         event = Event("heavy", lambda t, q, qd, lam: 30.0 - lam["pivot.y"], direction=-1,
                       terminal=True, multipliers=True)

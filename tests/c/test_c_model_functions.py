@@ -10,10 +10,12 @@ import subprocess
 import numpy as np
 import pytest
 
-from depsim.runtime.ctarget import FUNCTIONS, compiler
+from depsim.runtime.core import compiler
+from depsim.runtime.interface import FUNCTION_NAMES
 
 STRICT = ("-std=c99", "-Wall", "-Wextra", "-Wpedantic", "-Werror")
-CONSTANTS = ("MODEL_NAME", "SOURCE_FILE", "SOURCE_SHA256", "DEPSIM_VERSION", "NQ", "NC", "NP",
+CONSTANTS = ("MODEL_NAME", "DESCRIPTION", "SOURCE_FILE", "SOURCE_SHA256", "DEPSIM_VERSION",
+             "NQ", "NC", "NP",
              "COORDINATES", "PARAMETERS", "PARAMETER_DEFAULTS", "PARAMETER_UNITS", "CONSTRAINTS",
              "CONSTRAINT_JOINTS", "PHI_Q_ROWS", "PHI_Q_COLS", "HINGES", "HINGE_PROPERTIES",
              "SLIDERS", "OUTPUTS", "OUTPUT_UNITS", "ENERGIES", "DISSIPATORS", "T_END", "TOL",
@@ -35,7 +37,7 @@ def test_tables_and_settings_match(built):
         assert getattr(built.c, name) == getattr(built.numpy, name), name
 
 
-@pytest.mark.parametrize("function", [name for name, _, _ in FUNCTIONS])
+@pytest.mark.parametrize("function", FUNCTION_NAMES)
 def test_functions_match_numpy(built, function):
     numpy_function, c_function = getattr(built.numpy, function), getattr(built.c, function)
     args = tuple(inspect.signature(numpy_function).parameters)
@@ -52,6 +54,6 @@ def test_functions_match_numpy(built, function):
 
 
 def test_model_compiles_under_strict_c99(built, tmp_path):
-    run = subprocess.run([compiler(), *STRICT, "-c", str(built.folder / "model.c"),
+    run = subprocess.run([*compiler(), *STRICT, "-c", str(built.folder / "model.c"),
                           "-o", str(tmp_path / "model.o")], capture_output=True, text=True)
     assert run.returncode == 0, run.stderr

@@ -16,7 +16,8 @@ from depsim.codegen import derive, load_generated, numpy_source
 from depsim.codegen.c_emit import c_program_name, compile_c
 from depsim.codegen.c_printer import c_comment, c_file_stem, c_string
 from depsim.dsl import ir
-from depsim.runtime.ctarget import build_library, compiler, load_c_module
+from depsim.runtime.binding import build_model_library, load_c_module
+from depsim.runtime.core import compiler
 
 HOSTILE_NAME = 'x; system("rm -rf ~"); /* */ int y'
 HOSTILE_TEXT = ('ends */ a comment, "quotes", back\\slash\\, ??/ trigraph ??=,\nnew line\r, '
@@ -52,7 +53,7 @@ def hostile(tmp_path_factory):
 def test_hostile_names_compile_warning_free(hostile, tmp_path):
     _, folder, _ = hostile
     for name in ("model.c", "main.c"):
-        run = subprocess.run([compiler(), "-std=c99", "-O2", "-Wall", "-Wextra", "-Wpedantic",
+        run = subprocess.run([*compiler(), "-std=c99", "-O2", "-Wall", "-Wextra", "-Wpedantic",
                               "-Werror", "-c", name, "-o", str(tmp_path / f"{name}.o")],
                              cwd=folder, capture_output=True, text=True)
         assert run.returncode == 0, run.stderr
@@ -60,7 +61,7 @@ def test_hostile_names_compile_warning_free(hostile, tmp_path):
 
 def test_hostile_names_read_back_exactly(hostile):
     model, folder, module = hostile
-    c = load_c_module(build_library(folder))
+    c = load_c_module(build_model_library(folder))
     assert c.MODEL_NAME == HOSTILE_NAME and c.DESCRIPTION == HOSTILE_TEXT
     for constant in ("SOURCE_FILE", "COORDINATES", "PARAMETERS", "PARAMETER_UNITS",
                      "CONSTRAINTS", "CONSTRAINT_JOINTS", "HINGES", "OUTPUTS", "OUTPUT_UNITS",
@@ -73,7 +74,7 @@ def test_library_defines_and_uses_only_its_own_functions(hostile):
     _, folder, _ = hostile
     if shutil.which("nm") is None:
         pytest.skip("nm (binutils) is not installed")
-    library = str(build_library(folder))
+    library = str(build_model_library(folder))
     defined = subprocess.run(["nm", "-D", "--defined-only", library], capture_output=True,
                              text=True, check=True).stdout.split()
     names = [word for word in defined if re.fullmatch(r"[A-Za-z_]\w*", word)
@@ -108,7 +109,7 @@ def test_c_string_round_trips_every_byte(tmp_path):
     source = tmp_path / "echo.c"
     source.write_text('#include <stdio.h>\nint main(void) { fputs(' + c_string(text)
                       + ', stdout); return 0; }\n')
-    build = subprocess.run([compiler(), "-std=c99", "-Wall", "-Wextra", "-Wpedantic", "-Werror",
+    build = subprocess.run([*compiler(), "-std=c99", "-Wall", "-Wextra", "-Wpedantic", "-Werror",
                             "-o", str(tmp_path / "echo"), str(source)], capture_output=True,
                            text=True)
     assert build.returncode == 0, build.stderr

@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from depsim.codegen.c_emit import c_program_name, c_sources, compile_c
-from depsim.runtime import clib
-from depsim.runtime.ctarget import compiler
+from depsim.runtime import simulate
+from depsim.runtime.core import compiler
 
 HERE = Path(__file__).resolve().parent
 STRICT = ("-O2", "-std=c99", "-Wall", "-Wextra", "-Wpedantic", "-Werror")
@@ -26,7 +26,7 @@ EXAMPLES = list(SHORT)
 
 
 def cc(*arguments, cwd):
-    return subprocess.run([*compiler().split(), *map(str, arguments)], cwd=cwd,
+    return subprocess.run([*compiler(), *map(str, arguments)], cwd=cwd,
                           capture_output=True, text=True)
 
 
@@ -146,7 +146,7 @@ def test_program_runs_without_python_and_matches_the_binding(made, tmp_path):
     assert run.stdout.startswith("slider_crank: 101 output times to t = 0.5 s")
     p = np.array(built.c.PARAMETER_DEFAULTS)
     p[built.c.PARAMETERS.index("r")] = 0.11
-    clib.simulate(built.c, p, t_end=0.5).to_csv(tmp_path / "binding.csv")
+    simulate(built.c, p, t_end=0.5).to_csv(tmp_path / "binding.csv")
     assert (tmp_path / "out.csv").read_bytes() == (tmp_path / "binding.csv").read_bytes()
 
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from depsim.runtime import clib, simulate
+from depsim.runtime import simulate
 
 # example -> end time (s): the model's own, but two_link_flex is stiff (0.03 s of it is
 # 3000 steps of NumPy, 4 s).
@@ -33,7 +33,7 @@ def runs(example_builds):
             built = example_builds(name)
             t_end = RUNS[name]
             cache[name] = (built, simulate(built.numpy, t_end=t_end),
-                           clib.simulate(built.c, t_end=t_end))
+                           simulate(built.c, t_end=t_end))
         return cache[name]
 
     return get
@@ -95,7 +95,7 @@ def test_intelsat_is_step_for_step_before_its_sensitivity_grows(example_builds):
     (against each array's scale: the folding angles are still micro-radians here)."""
     built = example_builds("intelsat5")
     expected = simulate(built.numpy, t_end=0.015, dt_out=0.001)
-    got = clib.simulate(built.c, t_end=0.015, dt_out=0.001)
+    got = simulate(built.c, t_end=0.015, dt_out=0.001)
     assert got.stats.accepted_steps == expected.stats.accepted_steps
     assert got.stats.rejected_steps == expected.stats.rejected_steps
     assert array_error(expected.q, got.q) < 1e-13
@@ -122,6 +122,6 @@ def test_parameters_change_without_recompiling(example_builds):
     p = np.array(built.numpy.PARAMETER_DEFAULTS)
     p[built.numpy.PARAMETERS.index("L")] = 2.0
     expected = simulate(built.numpy, p, t_end=0.5)
-    got = clib.simulate(built.c, p, t_end=0.5)
+    got = simulate(built.c, p, t_end=0.5)
     assert np.all(column_error(expected.outputs, got.outputs) < 1e-9)
     assert got.parameters[0] == 2.0

@@ -5,7 +5,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 from types import ModuleType
 
-import numpy as np
 import pytest
 
 from codegen_cases import build, case_names

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from runtime_helpers import variant
 
-from depsim.runtime import SolverError, simulate, simulate_direct
+from depsim.runtime import SolverError, simulate
 
 
 def drifting_pin(pendulum, start=0.1, rate=1e-2):
@@ -33,12 +33,16 @@ def drifting_pin(pendulum, start=0.1, rate=1e-2):
                    phi_t=lambda q, t, p: np.array([0.0, 0.0, -shift(t, 1)]),
                    hinge_angles=lambda q, p: np.repeat(pendulum.hinge_angles(q, p), 2),
                    hinge_rates=lambda q, qd, p: np.repeat(pendulum.hinge_rates(q, qd, p), 2),
-                   hinge_jacobian=lambda q, p: np.repeat(pendulum.hinge_jacobian(q, p), 2, 0))
+                   hinge_jacobian=lambda q, p: np.repeat(pendulum.hinge_jacobian(q, p), 2, 0),
+                   hinge_gamma=lambda q, qd, p: np.zeros(2),
+                   hinge_properties=lambda p: np.full((2, 8), np.nan))
 
 
 def test_a_dead_point_is_reported_with_the_joint(slider_crank):
-    """With rod length = crank length the loop reaches a dead point at 90 degrees (piston at
-    the crank pivot) where Phi_q loses rank; the multipliers diverge there."""
+    """With rod length = crank length the loop has dead points at 90 and 270 degrees (piston
+    at the crank pivot) where Phi_q loses rank and the multipliers diverge. Whether a step
+    happens to pass the first one depends on round-off; where the run stops is determined: at
+    a dead point, naming a joint of the loop."""
     p = np.array(slider_crank.PARAMETER_DEFAULTS)
     p[1] = p[0]  # l = r
     p[8], p[9], p[10] = 0.0, np.radians(60), 5.0  # start at 60 deg, turning towards 90
@@ -47,8 +51,10 @@ def test_a_dead_point_is_reported_with_the_joint(slider_crank):
     error = caught.value
     assert error.stage in ("position", "velocity", "acceleration")
     assert error.joint in ("hinge crank_pin", "hinge wrist", "hinge gudgeon", "slider guide")
-    assert 0.05 < error.t < 0.15  # 30 degrees at about 5 rad/s
     assert error.joint in str(error) and "dead point" in str(error)
+    before = simulate(slider_crank, p, t_end=error.t * (1 - 1e-6), tol=1e-9)
+    crank = np.degrees(before.output("crank_angle")[-1])
+    assert abs((crank - 90) - 180 * round((crank - 90) / 180)) < 1.0, crank
 
 
 def test_redundant_rows_that_become_inconsistent_fail_where_they_part(pendulum):
@@ -75,13 +81,12 @@ def test_an_inconsistent_initial_state_names_the_joint(slider_crank):
         return q, qd
 
     module = variant(slider_crank, initial_state=initial_state)
-    for run in (simulate, simulate_direct):
-        with pytest.raises(SolverError) as caught:
-            run(module, t_end=0.1)
-        error = caught.value
-        assert error.stage == "initial state" and error.t == 0.0
-        assert error.joint in ("hinge wrist", "hinge gudgeon")
-        assert "position constraint" in str(error) and "closed loop" in str(error)
+    with pytest.raises(SolverError) as caught:
+        simulate(module, t_end=0.1)
+    error = caught.value
+    assert error.stage == "initial state" and error.t == 0.0
+    assert error.joint in ("hinge wrist", "hinge gudgeon")
+    assert "position constraint" in str(error) and "closed loop" in str(error)
 
 
 def test_non_finite_forces_are_reported(pendulum):

@@ -1,15 +1,10 @@
 """The iterative multiplier method on the bar pendulum against exact and independent results."""
 
 import numpy as np
-import pytest
 from runtime_helpers import pendulum_period
 from scipy.integrate import solve_ivp
 
 from depsim.runtime import Event, simulate
-from depsim.runtime.constraints import ConstraintSet
-from depsim.runtime.controller import LambdaHistory
-from depsim.runtime.stepper import State, Stepper
-from depsim.runtime.system import System
 
 
 def minimal_pendulum(p, t_eval):
@@ -57,29 +52,3 @@ def test_energy_drift_over_fifty_periods_is_below_1e_9(pendulum):
     assert drift < 1e-9  # measured 2.2e-10
     # at every period end the bar is back at rest at 60 degrees
     assert np.max(np.abs(result.output("theta") - p[3])) < 1e-7
-
-
-def fixed_step_error(module, n_steps, t_final, velocity_pass):
-    """Max state error after n fixed steps of the method (no step control) vs the reference."""
-    p = np.array(module.PARAMETER_DEFAULTS)
-    system = System(module, p)
-    stepper = Stepper(system, ConstraintSet(system), 1e-14, velocity_pass)
-    q, qd = module.initial_state(p)
-    lam, qdd, _ = stepper.acceleration(q, qd, 0.0, np.zeros(2))
-    state = State(0.0, q, qd, qdd, lam, np.zeros(1))
-    history = LambdaHistory(0.0, lam)
-    h = t_final / n_steps
-    for _ in range(n_steps):
-        state = stepper.step(state, h, history.predict(state.t + h)).state
-        history.add(state.t, state.lam)
-    theta, omega = minimal_pendulum(p, np.array([0.0, t_final]))
-    return max(abs(state.q[2] + np.pi / 2 - theta[-1]), abs(state.qd[2] - omega[-1]))
-
-
-@pytest.mark.parametrize("velocity_pass, order", [("project", 4), ("reintegrate", 3)])
-def test_observed_order_of_convergence(pendulum, velocity_pass, order):
-    """Linear interpolation of lambda limits DOPRI5 to global order 4 (3 when the velocity
-    pass re-integrates); docs/method.md derives both."""
-    errors = [fixed_step_error(pendulum, n, 1.0, velocity_pass) for n in (50, 100, 200)]
-    observed = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
-    assert abs(observed[-1] - order) < 0.3, observed

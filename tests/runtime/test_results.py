@@ -12,7 +12,6 @@ from runtime_helpers import variant
 import depsim.runtime.progress as progress_module
 from depsim.runtime import Event, simulate
 from depsim.runtime.plot import plot_outputs
-from depsim.runtime.recording import output_times
 
 
 @pytest.fixture(scope="module")
@@ -69,8 +68,9 @@ def test_plot_writes_a_png(result, tmp_path):
 
 
 def test_output_grid_includes_t_end(pendulum):
-    assert np.allclose(output_times(1.0, 0.3), [0, 0.3, 0.6, 0.9, 1.0])
-    assert np.allclose(output_times(1.0, 0.25), [0, 0.25, 0.5, 0.75, 1.0])
+    assert np.allclose(simulate(pendulum, t_end=1.0, dt_out=0.3).times, [0, 0.3, 0.6, 0.9, 1.0])
+    assert np.allclose(simulate(pendulum, t_end=1.0, dt_out=0.25).times,
+                       [0, 0.25, 0.5, 0.75, 1.0])
     short = variant(pendulum, T_END=0.3, DT_OUT=0.1, TOL=1e-7)
     run = simulate(short)  # defaults from the module
     assert (run.t_end, run.dt_out, run.tol) == (0.3, 0.1, 1e-7)
@@ -117,7 +117,8 @@ def test_runtime_imports_neither_sympy_nor_the_compiler():
     import subprocess
     import sys
 
-    code = ("import sys, depsim.runtime, depsim.runtime.plot, depsim.runtime.direct; "
+    code = ("import sys, depsim.runtime, depsim.runtime.plot, depsim.runtime.runner, "
+            "depsim.runtime.binding, depsim.runtime.sweep; "
             "print(sorted(m for m in sys.modules if m.split('.')[0] == 'sympy' "
             "or m.startswith(('depsim.dsl', 'depsim.codegen'))))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,

@@ -24,6 +24,8 @@ CONSTRAINTS = ("pivot.x", "pivot.y")
 CONSTRAINT_JOINTS = ("pivot", "pivot")
 PHI_Q_ROWS = (0, 0, 1, 1)
 PHI_Q_COLS = (0, 2, 1, 2)
+HINGE_PROPERTIES = ("latch", "latch_stiffness", "latch_damping", "stop_min", "stop_max",
+                    "friction", "static_friction", "slip_rate")
 HINGES = ("pivot",)
 SLIDERS = ()
 OUTPUTS = ("theta", "omega", "tip_x", "tip_y")
@@ -96,3 +98,11 @@ def energy(q, qd, t, p):
 
 def dissipation(q, qd, t, p):
     return np.array([p[5] * qd[2] ** 2])
+
+
+def hinge_gamma(q, qd, p):
+    return np.zeros(1)  # hinge angles are linear in q
+
+
+def hinge_properties(p):
+    return np.full((1, 8), np.nan)  # no latch, stop or friction

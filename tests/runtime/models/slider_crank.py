@@ -29,6 +29,8 @@ CONSTRAINT_JOINTS = ("crank_pin", "crank_pin", "wrist", "wrist", "gudgeon", "gud
                      "guide", "guide")
 PHI_Q_ROWS = (0, 0, 1, 1, 2, 2, 2, 2, 3, 3, 3, 3, 4, 4, 4, 5, 5, 5, 6, 7)
 PHI_Q_COLS = (0, 2, 1, 2, 0, 2, 3, 5, 1, 2, 4, 5, 3, 5, 6, 4, 5, 7, 7, 8)
+HINGE_PROPERTIES = ("latch", "latch_stiffness", "latch_damping", "stop_min", "stop_max",
+                    "friction", "static_friction", "slip_rate")
 HINGES = ("crank_pin", "wrist", "gudgeon")
 SLIDERS = ("guide",)
 OUTPUTS = ("crank_angle", "piston_x", "rod_angle")
@@ -127,9 +129,17 @@ def outputs(q, qd, t, p):
 
 def energy(q, qd, t, p):
     k, preload = p[6], p[7]
-    kinetic = 0.5 * np.sum(_masses(p) * qd * qd)
+    kinetic = 0.5 * sum(m * qd[i] ** 2 for i, m in enumerate(_masses(p)))
     return np.array([kinetic, -preload * q[2] + 0.5 * k * q[2] ** 2])
 
 
 def dissipation(q, qd, t, p):
     return np.array([p[8] * qd[2] ** 2])
+
+
+def hinge_gamma(q, qd, p):
+    return np.zeros(3)  # hinge angles are linear in q
+
+
+def hinge_properties(p):
+    return np.full((3, 8), np.nan)  # no latch, stop or friction

@@ -1,0 +1,152 @@
+"""The integrator core: the C sources in runtime/c, built once into a shared library, and
+their C interface seen from Python.
+
+Every run of every model goes through this one library (docs/method.md): the C target hands
+it a compiled model's `dep_model`, the NumPy target one whose functions call the generated
+module (`depsim.runtime.binding`). It is built with the machine's C compiler on first use
+and kept in the cache, keyed by its sources, the compiler and the flags:
+
+    <cache>/core/<key>/libdepsim_core.so        <cache>: $DEPSIM_CACHE, else ~/.cache/depsim
+
+The C structs are read by cffi from the headers themselves (depsim_model.h, depsim.h): no
+second definition of any field in Python.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import os
+import re
+import shutil
+import subprocess
+import tempfile
+from pathlib import Path
+
+SOURCE_DIR = Path(__file__).resolve().parent / "c"
+PROGRAM_SOURCE = "main.c"  # the standalone program's entry point, not part of the core
+HEADERS = ("depsim_model.h", "depsim.h")  # the public interface, in include order
+CFLAGS = ("-O2", "-std=c99")
+SHARED_FLAGS = ("-fPIC", "-shared")
+CORE_LIBRARY = "libdepsim_core.so"
+
+NO_COMPILER = ("no C compiler found: depsim builds its integrator with one (once, into its "
+               "cache); install one (Debian/Ubuntu: apt install gcc; Fedora: dnf install gcc; "
+               "macOS: xcode-select --install) or set CC to a compiler's path")
+
+
+class CBuildError(RuntimeError):
+    """The C compiler is missing or failed (message: what to install, or its output)."""
+
+
+def cache_root() -> Path:
+    """Where depsim keeps what it builds: $DEPSIM_CACHE, else $XDG_CACHE_HOME/depsim, else
+    ~/.cache/depsim; the system's temporary folder when none of these can be created."""
+    configured = os.environ.get("DEPSIM_CACHE")
+    if configured:
+        return Path(configured)
+    home = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    root = Path(home) / "depsim"
+    try:
+        root.mkdir(parents=True, exist_ok=True)
+        if os.access(root, os.W_OK):
+            return root
+    except OSError:
+        pass
+    user = os.getuid() if hasattr(os, "getuid") else "user"
+    return Path(tempfile.gettempdir()) / f"depsim-{user}"
+
+
+@functools.cache
+def compiler() -> tuple[str, ...]:
+    """The C compiler command: $CC, else cc, gcc or clang on the PATH; CBuildError when there
+    is none."""
+    for candidate in (os.environ.get("CC"), "cc", "gcc", "clang"):
+        if candidate and shutil.which(candidate.split()[0]):
+            return tuple(candidate.split())
+    raise CBuildError(NO_COMPILER)
+
+
+@functools.cache
+def _compiler_identity(cc: tuple[str, ...]) -> str:
+    try:
+        run = subprocess.run([*cc, "--version"], capture_output=True, text=True, timeout=60)
+    except (OSError, subprocess.SubprocessError) as exc:
+        raise CBuildError(f"the C compiler '{' '.join(cc)}' does not run: {exc}") from None
+    lines = run.stdout.splitlines()
+    return f"{shutil.which(cc[0])}|{lines[0] if lines else ''}"
+
+
+def build_shared_library(sources: list[Path], target_dir: Path, name: str,
+                         flags: tuple[str, ...] = CFLAGS, include: tuple[Path, ...] = ()
+                         ) -> Path:
+    """Compile `sources` into `target_dir/<key>/<name>` unless it is there already; the key
+    hashes the sources and every header beside them, the compiler and the flags. Returns the
+    library's path. The file is written under a temporary name and renamed, so concurrent
+    builders never load a partial library. Raises CBuildError."""
+    cc = compiler()
+    all_flags = tuple(flags) + SHARED_FLAGS
+    digest = hashlib.sha256()
+    for part in (_compiler_identity(cc), " ".join(all_flags)):
+        digest.update(part.encode() + b"\0")
+    headers = {h for folder in {s.parent for s in sources} | set(include)
+               for h in Path(folder).glob("*.h")}
+    for path in sorted(sources) + sorted(headers):
+        digest.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")
+    target = Path(target_dir) / digest.hexdigest()[:20] / name
+    if target.exists():
+        return target
+    target.parent.mkdir(parents=True, exist_ok=True)
+    fd, partial = tempfile.mkstemp(dir=target.parent, suffix=".so.tmp")
+    os.close(fd)
+    command = [*cc, *all_flags, *[f"-I{folder}" for folder in include], "-o", partial,
+               *map(str, sources), "-lm"]
+    try:
+        run = subprocess.run(command, capture_output=True, text=True)
+    except OSError as exc:
+        os.unlink(partial)
+        raise CBuildError(f"the C compiler '{' '.join(cc)}' does not run: {exc}") from None
+    if run.returncode != 0:
+        os.unlink(partial)
+        raise CBuildError(f"building {name} failed:\n$ {' '.join(command)}\n"
+                          f"{run.stdout}{run.stderr}")
+    os.replace(partial, target)
+    return target
+
+
+def core_sources() -> list[Path]:
+    """The core's C files (everything in runtime/c but the program's main.c)."""
+    return sorted(p for p in SOURCE_DIR.glob("*.c") if p.name != PROGRAM_SOURCE)
+
+
+@functools.cache
+def core_library_path() -> Path:
+    """The core library, built on first use (see the module docstring)."""
+    return build_shared_library(core_sources(), cache_root() / "core", CORE_LIBRARY)
+
+
+def _declarations(text: str) -> str:
+    """A header as cffi reads it: preprocessor lines dropped except `#define NAME <integer>`."""
+    return re.sub(r"^\s*#(?!\s*define\s+\w+\s+\d+\b).*$", "", text, flags=re.MULTILINE)
+
+
+@functools.cache
+def ffi():
+    """The cffi view of the core's headers (structs, enums, functions) and of a compiled
+    model's `depsim_model` symbol."""
+    import cffi
+
+    view = cffi.FFI()
+    text = "".join(_declarations((SOURCE_DIR / h).read_text(encoding="utf-8")) for h in HEADERS)
+    view.cdef(text + "\nextern dep_model depsim_model;\n")
+    return view
+
+
+@functools.cache
+def core():
+    """The loaded core library (built on first use)."""
+    return ffi().dlopen(str(core_library_path()))
+
+
+__all__ = ["CBuildError", "cache_root", "compiler", "build_shared_library", "core_sources",
+           "core_library_path", "ffi", "core", "SOURCE_DIR", "CFLAGS"]

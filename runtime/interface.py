@@ -1,0 +1,213 @@
+"""The model interface, defined once: what every generated model provides to the integrator.
+
+A model is a set of sizes, name tables, simulation settings and the functions below. The
+NumPy module (`<model>.py`) has them as constants and functions, the C model (`model.c`) as
+the fields of one `dep_model` struct (runtime/c/depsim_model.h). Everything else is derived
+from the tables here: codegen emits the functions in this order with these arguments and
+results, the C header is rendered from them (`render_header`; a test keeps the file in
+runtime/c equal to it), and the runtime fills a `dep_model` from a NumPy module with them.
+
+    python -m depsim.runtime.interface > runtime/c/depsim_model.h    # after a change here
+
+Arrays are float64 in SI units; q, qd have NQ entries, p NP; t is the time (s). Matrices are
+row-major. A function writes every entry of its results (zeros included).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+ABI = 2  # DEP_MODEL_ABI: bumped whenever the dep_model struct changes
+
+ARGUMENTS = ("q", "qd", "t", "p")  # every function takes a subsequence of these, in this order
+
+
+@dataclass(frozen=True, slots=True)
+class Size:
+    """A size of the model: the dep_model field, the module constant giving it (a count, or
+    the table whose length it is) and what it counts."""
+
+    field: str
+    constant: str
+    meaning: str
+
+
+@dataclass(frozen=True, slots=True)
+class Table:
+    """A constant table: dep_model field, module constant, C element type, length (a size
+    field) and a note."""
+
+    field: str
+    constant: str
+    ctype: str
+    size: str
+    note: str
+
+
+@dataclass(frozen=True, slots=True)
+class Output:
+    """One result array of a function: its name and shape in size fields (row-major)."""
+
+    name: str
+    shape: tuple[str, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class Function:
+    """A model function: name, arguments (from ARGUMENTS, in that order), results, summary."""
+
+    name: str
+    args: tuple[str, ...]
+    results: tuple[Output, ...]
+    summary: str
+
+
+IDENTITY = (  # (dep_model field, module constant)
+    ("name", "MODEL_NAME"), ("description", "DESCRIPTION"), ("source_file", "SOURCE_FILE"),
+    ("source_sha256", "SOURCE_SHA256"), ("depsim_version", "DEPSIM_VERSION"),
+)
+
+SIZES = (
+    Size("nq", "NQ", "coordinates"),
+    Size("nc", "NC", "constraint rows"),
+    Size("np", "NP", "parameters"),
+    Size("nnz", "PHI_Q_ROWS", "structural non-zeros of Phi_q"),
+    Size("nh", "HINGES", "hinges"),
+    Size("nhp", "HINGE_PROPERTIES", "hinge properties"),
+    Size("ns", "SLIDERS", "sliders"),
+    Size("nout", "OUTPUTS", "outputs"),
+    Size("ne", "ENERGIES", "energy terms"),
+    Size("nd", "DISSIPATORS", "dissipators"),
+)
+
+TABLES = (
+    Table("coordinate_names", "COORDINATES", "const char *const", "nq", ""),
+    Table("parameter_names", "PARAMETERS", "const char *const", "np", ""),
+    Table("parameter_defaults", "PARAMETER_DEFAULTS", "const double", "np", "SI"),
+    Table("parameter_units", "PARAMETER_UNITS", "const char *const", "np", "SI unit text"),
+    Table("constraint_names", "CONSTRAINTS", "const char *const", "nc",
+          '"<joint>.<component>"'),
+    Table("constraint_joints", "CONSTRAINT_JOINTS", "const char *const", "nc", ""),
+    Table("phi_q_rows", "PHI_Q_ROWS", "const int", "nnz", "row-major sorted"),
+    Table("phi_q_cols", "PHI_Q_COLS", "const int", "nnz", ""),
+    Table("hinge_names", "HINGES", "const char *const", "nh", ""),
+    Table("hinge_property_names", "HINGE_PROPERTIES", "const char *const", "nhp",
+          "columns of hinge_properties()"),
+    Table("slider_names", "SLIDERS", "const char *const", "ns", ""),
+    Table("output_names", "OUTPUTS", "const char *const", "nout", ""),
+    Table("output_units", "OUTPUT_UNITS", "const char *const", "nout", ""),
+    Table("energy_names", "ENERGIES", "const char *const", "ne", ""),
+    Table("dissipator_names", "DISSIPATORS", "const char *const", "nd", ""),
+)
+
+SETTINGS = (("t_end", "T_END"), ("tol", "TOL"), ("dt_out", "DT_OUT"))
+
+FUNCTIONS = (
+    Function("mass_matrix", ("p",), (Output("M", ("nq", "nq")),),
+             "Constant mass matrix M, shape (NQ, NQ)."),
+    Function("initial_state", ("p",), (Output("q0", ("nq",)), Output("qd0", ("nq",))),
+             "Assembled initial pose and velocities (q0, qd0)."),
+    Function("phi", ("q", "t", "p"), (Output("phi", ("nc",)),),
+             "Constraint residuals Phi(q, t), shape (NC,)."),
+    Function("phi_q", ("q", "t", "p"), (Output("phi_q", ("nnz",)),),
+             "Values of Phi_q at (PHI_Q_ROWS, PHI_Q_COLS)."),
+    Function("phi_t", ("q", "t", "p"), (Output("phi_t", ("nc",)),),
+             "dPhi/dt, shape (NC,)."),
+    Function("gamma", ("q", "qd", "t", "p"), (Output("gamma", ("nc",)),),
+             "Right side of Phi_q qdd = gamma, shape (NC,)."),
+    Function("force", ("q", "qd", "t", "p"), (Output("f", ("nq",)),),
+             "Generalized applied force f = -dV/dq + damping (no hinge friction), shape (NQ,)."),
+    Function("hinge_angles", ("q", "p"), (Output("theta", ("nh",)),),
+             "Hinge angles theta (rad), shape (NH,)."),
+    Function("hinge_rates", ("q", "qd", "p"), (Output("theta_rate", ("nh",)),),
+             "Hinge angle rates (rad/s), shape (NH,)."),
+    Function("hinge_jacobian", ("q", "p"), (Output("J", ("nh", "nq")),),
+             "d theta / d q, shape (NH, NQ)."),
+    Function("hinge_gamma", ("q", "qd", "p"), (Output("gamma_h", ("nh",)),),
+             "-(J qd)_q qd per hinge: a locked hinge adds the row J qdd = hinge_gamma."),
+    Function("hinge_properties", ("p",), (Output("H", ("nh", "nhp")),),
+             "HINGE_PROPERTIES of each hinge (SI; nan: not given), shape (NH, NHP)."),
+    Function("outputs", ("q", "qd", "t", "p"), (Output("y", ("nout",)),),
+             "The named outputs, shape (NOUT,)."),
+    Function("energy", ("q", "qd", "t", "p"), (Output("E", ("ne",)),),
+             "Kinetic energy and each potential (J), in the order of ENERGIES."),
+    Function("dissipation", ("q", "qd", "t", "p"), (Output("P", ("nd",)),),
+             "Power removed by each element of DISSIPATORS (W)."),
+)
+
+FUNCTION_NAMES = tuple(f.name for f in FUNCTIONS)
+
+# Every name a NumPy module must define (docs/generated-module.md).
+MODULE_CONSTANTS = tuple(dict.fromkeys(
+    [c for _, c in IDENTITY] + [s.constant for s in SIZES[:3]] + [t.constant for t in TABLES]
+    + [c for _, c in SETTINGS]))
+
+
+def check_module(module) -> None:
+    """Raise TypeError naming what a module lacks of the interface (a programming error
+    upstream: generated modules have everything)."""
+    optional = {"DESCRIPTION"}
+    missing = [name for name in MODULE_CONSTANTS + FUNCTION_NAMES
+               if name not in optional and not hasattr(module, name)]
+    if missing:
+        raise TypeError(f"{module!r} is not a depsim model module: missing "
+                        + ", ".join(missing) + " (see docs/generated-module.md)")
+
+
+# ---- the C header ----------------------------------------------------------------------------
+
+_C_ARGUMENTS = {"q": "const double *q", "qd": "const double *qd", "t": "double t",
+                "p": "const double *p"}
+
+
+def c_declaration(function: Function) -> str:
+    """The C parameter list of a model function (results last), e.g.
+    `const double *q, double t, const double *p, double *phi`."""
+    return ", ".join([_C_ARGUMENTS[a] for a in function.args]
+                     + [f"double *{r.name}" for r in function.results])
+
+
+def render_header() -> str:
+    """runtime/c/depsim_model.h, rendered from the tables above."""
+    lines = [
+        "/* depsim_model.h: what the integrator needs from a model. GENERATED from",
+        " * depsim/runtime/interface.py (python -m depsim.runtime.interface); do not edit.",
+        " *",
+        " * A generated model.c defines one `const dep_model depsim_model` filled with its",
+        " * sizes, name tables and functions; a NumPy module is seen through the same struct.",
+        " * The functions have the names of docs/generated-module.md (prefixed `model_` in",
+        " * model.h) and its argument order; the result arrays come last and are written",
+        " * completely (zeros included). Arrays hold doubles in SI units: q, qd: nq; p: np;",
+        " * t: time (s). Matrices are row-major. Empty tables are NULL.",
+        " */",
+        "#ifndef DEPSIM_MODEL_H",
+        "#define DEPSIM_MODEL_H",
+        "",
+        f"#define DEP_MODEL_ABI {ABI} /* bumped whenever this struct changes */",
+        "",
+        "typedef struct dep_model {",
+        "    int abi; /* DEP_MODEL_ABI of the header the model was compiled with */",
+        "",
+        "    /* identity */",
+    ]
+    lines += [f"    const char *{field};" for field, _ in IDENTITY]
+    lines += ["", "    /* sizes */"]
+    lines += [f"    int {s.field}; /* {s.meaning} */" for s in SIZES]
+    lines += ["", "    /* tables (NULL when empty) */"]
+    for t in TABLES:
+        ctype = t.ctype.replace("const char *const", "const char *const *").replace(
+            "const double", "const double *").replace("const int", "const int *")
+        note = f"{t.size}" + (f", {t.note}" if t.note else "")
+        lines.append(f"    {ctype}{'' if ctype.endswith('*') else ' '}{t.field}; /* {note} */")
+    lines += ["", "    /* the model's simulation settings */",
+              "    double " + ", ".join(f for f, _ in SETTINGS) + ";", "",
+              "    /* functions (docs/generated-module.md) */"]
+    for f in FUNCTIONS:
+        lines.append(f"    /* {f.summary} */")
+        lines.append(f"    void (*{f.name})({c_declaration(f)});")
+    lines += ["} dep_model;", "", "#endif /* DEPSIM_MODEL_H */", ""]
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    print(render_header(), end="")

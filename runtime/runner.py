@@ -1,0 +1,354 @@
+"""`simulate`: run a model through the integrator core and return its `Result`.
+
+    from depsim.runtime import simulate
+    result = simulate(module)                     # a generated NumPy module or a CModule
+    result = simulate(module, p, t_end=5.0, events=[...])
+
+The core (runtime/c, docs/method.md) does everything of the method: steps, passes,
+multipliers, step control, events, latches, stops, stick-slip, impacts, loads, recording and
+the deployment summary. This module only converts: settings and Python `Event`s in, the
+`dep_result` out, C errors to Python exceptions (`SolverError` with its parts, `ValueError`
+for bad settings, an exception raised by an event function, callback or NumPy model function
+re-raised as it was).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .binding import bind
+from .constraints import ConstraintSet, HingeLock, LinearConstraint
+from .core import core, ffi
+from .errors import SolverError
+from .events import EventHit, EventResponse
+from .loads import Deployment, LatchRecord, PeakLoad
+from .progress import Progress
+from .results import EventRecord, PassStats, Result, Stats
+
+
+def simulate(module, params: np.ndarray | None = None, t_end: float | None = None,
+             dt_out: float | None = None, tol: float | None = None, events=(),
+             progress: bool = False, mechanics: bool = True) -> Result:
+    """Integrate a model with the iterative multiplier method (docs/method.md).
+
+    module: a generated NumPy module (docs/generated-module.md) or a compiled C model
+    (`depsim.runtime.binding.load_folder`); params (NP,) SI, default PARAMETER_DEFAULTS;
+    t_end, dt_out (s) and tol default to the module's T_END, DT_OUT, TOL; events: `Event`s;
+    progress: draw a bar on stderr (only when it is a terminal); mechanics: apply the hinges'
+    latches, stops and stick-slip friction (docs/deployment.md); False integrates without.
+    Raises SolverError when the integration cannot go on, ValueError for bad settings.
+    """
+    binding = bind(module)
+    model = binding.module
+    p = resolve_parameters(model, params)
+    view, library = ffi(), core()
+    settings = view.new("dep_settings *", {
+        "t_end": _setting(t_end, model.T_END), "dt_out": _setting(dt_out, model.DT_OUT),
+        "tol": _setting(tol, model.TOL), "mechanics": int(bool(mechanics))})
+    bridge = EventBridge(model, p, events)
+    bar = Progress(settings.t_end, progress)
+
+    def report(_context, t):
+        try:
+            bar.update(t)
+        except BaseException as exc:  # Ctrl-C arrives here during a long C run
+            bridge.exception = bridge.exception or exc
+        return int(bridge.exception is not None or binding.failure is not None)
+
+    settings.progress = progress_callback = view.callback("int(*)(void *, double)", report)
+    result, error = view.new("dep_result *"), view.new("dep_error *")
+    try:
+        with binding.running():
+            status = library.dep_simulate(binding.pointer, view.from_buffer("double[]", p),
+                                          settings, bridge.array, len(bridge.events), result,
+                                          error)
+            failure = bridge.exception or binding.failure
+    finally:
+        bar.close()
+        del progress_callback
+    if failure is not None:
+        if status == library.DEP_OK:
+            library.dep_result_free(result)
+        raise failure
+    if status != library.DEP_OK:
+        raise _exception(error)
+    try:
+        return _result(model, result)
+    finally:
+        library.dep_result_free(result)
+
+
+def _setting(value, default) -> float:
+    return float(default if value is None else value)
+
+
+def resolve_parameters(module, params) -> np.ndarray:
+    """The parameter vector (NP,) as a fresh float array; ValueError for a wrong shape."""
+    p = np.array(module.PARAMETER_DEFAULTS if params is None else params, dtype=float)
+    if p.shape != (module.NP,):
+        raise ValueError(f"params must have shape ({module.NP},) for model "
+                         f"'{module.MODEL_NAME}' ({', '.join(module.PARAMETERS)}); "
+                         f"got shape {p.shape}")
+    return np.ascontiguousarray(p)
+
+
+def _text(value) -> str:
+    return ffi().string(value).decode("utf-8", errors="replace")
+
+
+def _exception(error) -> Exception:
+    """The Python exception of a failed C run."""
+    library = core()
+    if error.code == library.DEP_SOLVER_ERROR:
+        return SolverError(_text(error.what), t=error.t if error.has_t else None,
+                           stage=_text(error.stage) or None, row=_text(error.row) or None,
+                           joint=_text(error.joint) or None,
+                           residual=error.residual if error.has_residual else None,
+                           hint=_text(error.hint) or None)
+    if error.code == library.DEP_SETTINGS_ERROR:
+        return ValueError(_text(error.message))
+    if error.code == library.DEP_MEMORY_ERROR:
+        return MemoryError(_text(error.message))
+    return RuntimeError(_text(error.message))
+
+
+# ---- the result ---------------------------------------------------------------------------------
+
+def _array(pointer, rows: int, width: int | None = None) -> np.ndarray:
+    shape = (rows,) if width is None else (rows, width)
+    size = rows * (1 if width is None else width)
+    if size == 0:
+        return np.zeros(shape)
+    return np.frombuffer(ffi().buffer(pointer, 8 * size), dtype=float).reshape(shape).copy()
+
+
+def _names(pointer, count: int) -> tuple[str, ...]:
+    return tuple(_text(pointer[i]) for i in range(count))
+
+
+def _stats(s) -> Stats:
+    def passes(p) -> PassStats:
+        return PassStats(float(p.mean), int(p.max), int(p.total))
+
+    return Stats(accepted_steps=s.accepted_steps, rejected_steps=s.rejected_steps,
+                 failed_steps=s.failed_steps, integrations=s.integrations,
+                 rhs_evaluations=s.rhs_evaluations, position=passes(s.position),
+                 velocity=passes(s.velocity), acceleration=passes(s.acceleration),
+                 cg_iterations=s.cg_iterations, factorizations=s.factorizations,
+                 max_v_pos=s.max_v_pos, max_v_vel=s.max_v_vel, max_v_acc=s.max_v_acc,
+                 min_step=s.min_step, max_step=s.max_step, events=s.events)
+
+
+def _value(d):
+    library = core()
+    if d.kind == library.DEP_TEXT:
+        return _text(d.text)
+    if d.kind == library.DEP_BOOL:
+        return bool(d.number)
+    if d.kind == library.DEP_NONE:
+        return None
+    return float(d.number)
+
+
+def _data(record) -> dict:
+    """A record's data: entries with a member form a dict under their key."""
+    data: dict = {}
+    for i in range(record.n_data):
+        d = record.data[i]
+        key, member = _text(d.key), _text(d.member)
+        if member:
+            data.setdefault(key, {})[member] = _value(d)
+        else:
+            data[key] = _value(d)
+    return data
+
+
+def _records(r) -> tuple[EventRecord, ...]:
+    return tuple(EventRecord(_text(r.events[k].name), float(r.events[k].t), _data(r.events[k]))
+                 for k in range(r.n_events))
+
+
+def _peaks(module, r) -> dict:
+    return {h: PeakLoad(float(r.peak_loads[k].force), float(r.peak_loads[k].t_force),
+                        float(r.peak_loads[k].torque), float(r.peak_loads[k].t_torque))
+            for k, h in enumerate(module.HINGES)}
+
+
+def _optional(value: float) -> float | None:
+    return None if np.isnan(value) else float(value)
+
+
+def _deployment(module, d) -> Deployment:
+    hinges = module.HINGES
+    latches = tuple(LatchRecord(hinges[s.hinge], float(s.t), float(s.rate),
+                                _optional(s.impulse), _optional(s.energy_loss), bool(s.rigid))
+                    for s in (d.latches[k] for k in range(d.n_latches)))
+    return Deployment(tuple(hinges[d.latch_hinges[k]] for k in range(d.n_latch_hinges)),
+                      latches, None if d.deployed < 0 else bool(d.deployed),
+                      _optional(d.time), float(d.friction_energy), float(d.impact_energy))
+
+
+def _result(module, r) -> Result:
+    n = r.n
+    return Result(
+        model=module.MODEL_NAME, method="iterative",
+        parameter_names=tuple(module.PARAMETERS), parameters=_array(r.params, module.NP),
+        tol=r.tol, constraint_tol=r.constraint_tol, t_end=r.t_end, dt_out=r.dt_out,
+        times=_array(r.times, n), coordinate_names=tuple(module.COORDINATES),
+        q=_array(r.q, n, r.nq), qd=_array(r.qd, n, r.nq),
+        constraint_names=_names(r.row_names, r.n_rows),
+        lam=_array(r.lam, n, r.n_rows), hinge_names=tuple(module.HINGES),
+        hinge_angles=_array(r.hinge_angles, n, r.nh), hinge_rates=_array(r.hinge_rates, n, r.nh),
+        output_names=tuple(module.OUTPUTS), output_units=tuple(module.OUTPUT_UNITS),
+        outputs=_array(r.outputs, n, r.nout), residual_pos=_array(r.residual_pos, n),
+        residual_vel=_array(r.residual_vel, n), residual_acc=_array(r.residual_acc, n),
+        energy_names=_names(r.energy_names, r.ne), energy=_array(r.energy, n, r.ne),
+        dissipator_names=_names(r.dissipator_names, r.nd),
+        dissipated=_array(r.dissipated, n, r.nd), stats=_stats(r.stats), events=_records(r),
+        hinge_torque=_array(r.hinge_torque, n, r.nh), peak_loads=_peaks(module, r),
+        deployment=_deployment(module, r.deployment), report_text=_text(r.report))
+
+
+# ---- Python events -------------------------------------------------------------------------------
+
+class EventBridge:
+    """Python `Event`s as C `dep_event`s. A callback sees an `EventHit` whose `constraints` is a
+    `ConstraintSet` of the rows active in C (the model's, then the added `HingeLock` and
+    `LinearConstraint` rows); its `EventResponse` may add and remove such rows, replace the
+    state, ask for an impact and attach numbers. `records` are the mechanism's own."""
+
+    def __init__(self, module, p: np.ndarray, events):
+        view = ffi()
+        self.module, self.p, self.events = module, p, tuple(events)
+        names = [e.name for e in self.events]
+        if len(set(names)) != len(names):
+            raise ValueError("event names must be distinct")
+        self.exception: BaseException | None = None
+        self.keep: list = []  # what the C side reads until the next callback
+        self.array = view.new("dep_event[]", max(1, len(self.events)))
+        self.callbacks = []
+        for k, event in enumerate(self.events):
+            name = view.new("char[]", event.name.encode("utf-8"))
+            function = view.callback("int(*)(void *, double, const double *, const double *, "
+                                     "const dep_active_rows *, double *)",
+                                     self._function(event))
+            callback = view.callback("int(*)(void *, const dep_event_hit *, "
+                                     "dep_event_response *)", self._callback(event))
+            self.callbacks += [name, function, callback]
+            c = self.array[k]
+            c.name, c.function, c.callback = name, function, callback
+            c.direction = int(event.direction)
+            c.terminal = int(bool(event.terminal))
+            c.max_hits = -1 if event.max_hits is None else int(event.max_hits)
+            c.multipliers = int(bool(event.multipliers))
+
+    def _guard(self, work) -> int:
+        if self.exception is not None:
+            return 1
+        try:
+            work()
+            return 0
+        except BaseException as exc:  # re-raised by simulate()
+            self.exception = exc
+            return 1
+
+    def _vector(self, pointer) -> np.ndarray:
+        return _array(pointer, self.module.NQ)
+
+    def _function(self, event):
+        def function(_context, t, q, qd, rows, out):
+            def work():
+                q_arr, qd_arr = self._vector(q), self._vector(qd)
+                if event.multipliers:
+                    r = rows[0]
+                    lam = {_text(r.names[i]): float(r.lam[i]) for i in range(r.nc)}
+                    out[0] = float(event.function(t, q_arr, qd_arr, lam))
+                else:
+                    out[0] = float(event.function(t, q_arr, qd_arr))
+            return self._guard(work)
+
+        return function
+
+    def _callback(self, event):
+        def callback(_context, hit, response):
+            return self._guard(lambda: self._respond(event, hit[0], response[0]))
+
+        return callback
+
+    def _constraints(self, hit) -> ConstraintSet:
+        """The active rows as a ConstraintSet."""
+        library, rows = core(), []
+        for i in range(hit.n_added):
+            r = hit.added[i]
+            name, joint = _text(r.name), _text(r.joint)
+            if r.kind == library.DEP_ROW_HINGE_LOCK:
+                rows.append(HingeLock(self.module, self.module.HINGES[r.hinge], float(r.angle),
+                                      name=name, joint=joint))
+            else:
+                rows.append(LinearConstraint(name, joint, self._vector(r.row), float(r.value)))
+        return ConstraintSet(self.module, self.p, rows)
+
+    def _respond(self, event, hit, out) -> None:
+        info = EventHit(event.name, hit.t, self._vector(hit.q), self._vector(hit.qd),
+                        _array(hit.lam, hit.nc), self._constraints(hit), self.module,
+                        self.p.copy())
+        response = (event.callback(info) if event.callback else None) or EventResponse()
+        if response.records is not None:
+            raise TypeError(f"event '{event.name}': `records` belong to the integrator's own "
+                            "latches, stops and stick-slip mechanism")
+        self._fill(response, out)
+
+    def _fill(self, response: EventResponse, out) -> None:
+        view, library = ffi(), core()
+        self.keep = []
+        out.stop = -1 if response.stop is None else int(bool(response.stop))
+        for name in ("q", "qd"):
+            value = getattr(response, name)
+            if value is not None:
+                array = np.ascontiguousarray(value, dtype=float).ravel()
+                if array.size != self.module.NQ:
+                    raise ValueError(f"EventResponse.{name} needs {self.module.NQ} values, "
+                                     f"got {array.size}")
+                self.keep.append(array)
+                setattr(out, name, view.from_buffer("double[]", array))
+        limit = library.DEP_MAX_ADDED
+        if len(response.add) > limit or len(response.remove) > limit:
+            raise ValueError(f"an event may add or remove at most {limit} rows")
+        for i, row in enumerate(response.add):
+            self._row(row, out.add[i])
+        out.n_add = len(response.add)
+        for i, name in enumerate(response.remove):
+            out.remove[i] = _bounded(name)
+        out.n_remove = len(response.remove)
+        out.impact = int(bool(response.impact))
+        data = list(response.data.items())[:library.DEP_MAX_DATA]
+        for i, (key, value) in enumerate(data):
+            out.data_names[i] = _bounded(str(key))
+            out.data_values[i] = float(value)
+        out.n_data = len(data)
+
+    def _row(self, row, c) -> None:
+        view, library = ffi(), core()
+        c.name, c.joint = _bounded(row.name), _bounded(row.joint)
+        if isinstance(row, HingeLock):
+            c.kind = library.DEP_ROW_HINGE_LOCK
+            c.hinge = self.module.HINGES.index(row.hinge)
+            c.angle = float(row.angle)
+        elif isinstance(row, LinearConstraint):
+            array = np.ascontiguousarray(row.row, dtype=float).ravel()
+            self.keep.append(array)
+            c.kind = library.DEP_ROW_LINEAR
+            c.hinge = -1
+            c.row = view.from_buffer("double[]", array)
+            c.value = float(row.value)
+        else:
+            raise TypeError(f"an event adds HingeLock and LinearConstraint rows, not "
+                            f"{type(row).__name__}")
+
+
+def _bounded(text: str) -> bytes:
+    """A name as the C side stores it (DEP_NAME_MAX - 1 bytes at most)."""
+    return text.encode("utf-8")[:core().DEP_NAME_MAX - 1]
+
+
+__all__ = ["simulate", "resolve_parameters", "EventBridge"]

@@ -1,0 +1,187 @@
+/* Checks of the integrator core's parts that a whole run does not expose, built with the core
+ * sources and one generated model (tests/c/test_core_parts.py drives it):
+ *
+ *   core_checks iteration H      one step of size H from the initial state with the worst
+ *                                prediction lambda_{i+1} = 0 at tol 1e-12: prints each
+ *                                pass's error after every iteration of (6)
+ *   core_checks fixed N T        N fixed steps to T without step control (tol 1e-14): prints
+ *                                the final q, then qd
+ *   core_checks project NQ NC    reads M (NQ x NQ), J (NC x NQ) and qd (NQ) from stdin, prints
+ *                                the plastic-impact projection of qd onto J qd+ = 0
+ */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "model.h"
+#include "runtime.h"
+
+typedef struct parts {
+    dep_arena arena;
+    dep_error error;
+    dep_system system;
+    dep_constraints cs;
+    dep_stepper stepper;
+    dep_history history;
+    dep_state state;
+    dep_outcome outcome;
+} parts;
+
+static int fail(const char *what)
+{
+    fprintf(stderr, "core_checks: %s\n", what);
+    return 1;
+}
+
+/* The generated model at its defaults, its consistent initial state and lambda_0. */
+static int start(parts *x, double tol)
+{
+    const dep_model *m = &depsim_model;
+    dep_pass_report report;
+    dep_failure failure;
+    memset(x, 0, sizeof *x);
+    if (dep_system_init(&x->system, m, m->parameter_defaults, 0, &x->arena, &x->error) != DEP_OK
+        || dep_constraints_init(&x->cs, &x->system, &x->arena) != DEP_OK
+        || dep_stepper_init(&x->stepper, &x->system, &x->cs, tol, &x->arena) != DEP_OK
+        || dep_history_init(&x->history, x->cs.capacity, &x->arena) != DEP_OK
+        || dep_state_init(&x->state, m->nq, x->cs.capacity, x->system.nd, &x->arena) != DEP_OK
+        || dep_outcome_init(&x->outcome, m->nq, x->cs.capacity, x->system.nd, &x->arena)) {
+        return fail("setup");
+    }
+    m->initial_state(m->parameter_defaults, x->state.q, x->state.qd);
+    dep_cs_jacobian(&x->cs, x->state.q, 0.0, x->stepper.restart_J);
+    if (dep_acceleration(&x->stepper, x->state.q, x->state.qd, 0.0, x->state.lam,
+                         x->stepper.restart_J, 1, x->state.qdd, &report, &failure) != DEP_OK) {
+        return fail("acceleration pass");
+    }
+    dep_history_reset(&x->history, 0.0, x->state.lam, x->cs.nc);
+    return 0;
+}
+
+static int iteration(double h)
+{
+    parts x;
+    dep_failure failure;
+    if (start(&x, 1e-12) != 0) {
+        return 1;
+    }
+    double *zero = calloc((size_t)x.cs.capacity, sizeof *zero);
+    if (zero == NULL || dep_step(&x.stepper, &x.state, h, zero, &x.outcome, &failure) != DEP_OK) {
+        return fail("step");
+    }
+    for (int k = 0; k < 3; ++k) {
+        const dep_pass_report *r = &x.outcome.reports[k];
+        printf("%s %d", dep_stage_names[r->stage], r->iterations);
+        for (int i = 0; i < r->n_errors; ++i) {
+            printf(" %.17g", r->errors[i]);
+        }
+        printf("\n");
+    }
+    printf("constraint_tol %.17g\n", x.stepper.constraint_tol);
+    free(zero);
+    dep_arena_free(&x.arena);
+    return 0;
+}
+
+static int fixed(int n, double t_end)
+{
+    parts x;
+    dep_failure failure;
+    int nq = depsim_model.nq;
+    if (start(&x, 1e-14) != 0) {
+        return 1;
+    }
+    double h = t_end / n, *predicted = calloc((size_t)x.cs.capacity, sizeof *predicted);
+    if (predicted == NULL) {
+        return fail("memory");
+    }
+    for (int k = 0; k < n; ++k) {
+        dep_history_predict(&x.history, x.state.t + h, predicted);
+        if (dep_step(&x.stepper, &x.state, h, predicted, &x.outcome, &failure) != DEP_OK) {
+            return fail("step");
+        }
+        dep_state_copy(&x.state, &x.outcome.state, nq, x.cs.nc, x.system.nd);
+        dep_history_add(&x.history, x.state.t, x.state.lam);
+    }
+    for (int j = 0; j < 2 * nq; ++j) {
+        printf("%.17g%s", j < nq ? x.state.q[j] : x.state.qd[j - nq], j + 1 < 2 * nq ? " " : "\n");
+    }
+    free(predicted);
+    dep_arena_free(&x.arena);
+    return 0;
+}
+
+/* ---- the projection, on a mass matrix and Jacobian read from stdin ------------------------ */
+
+static double *read_numbers(int n)
+{
+    double *v = malloc((size_t)n * sizeof *v);
+    for (int i = 0; v != NULL && i < n; ++i) {
+        if (scanf("%lf", &v[i]) != 1) {
+            free(v);
+            return NULL;
+        }
+    }
+    return v;
+}
+
+static const double *given_mass;
+static int given_nq;
+
+static void mass_matrix(const double *p, double *M)
+{
+    (void)p;
+    memcpy(M, given_mass, (size_t)given_nq * (size_t)given_nq * sizeof *M);
+}
+
+static int project(int nq, int nc)
+{
+    double *M = read_numbers(nq * nq), *J = read_numbers(nc * nq), *qd = read_numbers(nq);
+    if (M == NULL || J == NULL || qd == NULL) {
+        return fail("bad input");
+    }
+    given_mass = M;
+    given_nq = nq;
+    dep_model model = {.abi = DEP_MODEL_ABI, .name = "projection", .nq = nq,
+                       .mass_matrix = mass_matrix};
+    parts x;
+    memset(&x, 0, sizeof x);
+    dep_multipliers mp;
+    dep_measurement slots[2], *pair[2] = {&slots[0], &slots[1]};
+    dep_pass_report report;
+    dep_failure failure;
+    double *phi_t = calloc((size_t)nc, sizeof *phi_t), *mu = calloc((size_t)nc, sizeof *mu);
+    double *out = calloc((size_t)nq, sizeof *out);
+    if (dep_system_init(&x.system, &model, NULL, 0, &x.arena, &x.error) != DEP_OK
+        || dep_multipliers_init(&mp, &x.system.mass, nq, nc, &x.arena) != DEP_OK
+        || dep_measurement_init(&slots[0], nq, nc, 0, 0, &x.arena) != DEP_OK
+        || dep_measurement_init(&slots[1], nq, nc, 0, 0, &x.arena) != DEP_OK
+        || phi_t == NULL || mu == NULL || out == NULL) {
+        return fail("setup");
+    }
+    if (dep_project_velocity(&mp, J, 1, nc, qd, phi_t, 1e-14, out, mu, pair, &report,
+                             &failure) != DEP_OK) {
+        return fail(failure.reason);
+    }
+    for (int j = 0; j < nq; ++j) {
+        printf("%.17g%s", out[j], j + 1 < nq ? " " : "\n");
+    }
+    printf("iterations %d\n", report.iterations);
+    free(M), free(J), free(qd), free(phi_t), free(mu), free(out);
+    dep_arena_free(&x.arena);
+    return 0;
+}
+
+int main(int argc, char **argv)
+{
+    if (argc == 3 && strcmp(argv[1], "iteration") == 0) {
+        return iteration(atof(argv[2]));
+    }
+    if (argc == 4 && strcmp(argv[1], "fixed") == 0) {
+        return fixed(atoi(argv[2]), atof(argv[3]));
+    }
+    if (argc == 4 && strcmp(argv[1], "project") == 0) {
+        return project(atoi(argv[2]), atoi(argv[3]));
+    }
+    return fail("usage: core_checks iteration H | fixed N T | project NQ NC");
+}
