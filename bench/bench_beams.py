@@ -1,4 +1,4 @@
-"""The two-link flexible pendulum (MODELS.md M2) at 2, 4, 8, 16 elements per link: cost of the
+"""The two-link flexible pendulum (docs/examples.md, two flexible links) at 2, 4, 8, 16 elements per link: cost of the
 iterative integrator, energy conservation, and mesh convergence of chord2 and tip2.
 
     .venv/bin/python bench/bench_beams.py [--span 0.1] [--elements 2,4,8,16] [--tol 1e-8]

@@ -87,7 +87,7 @@ class BeamSymbolic:
 
     def tip_deflection(self) -> sympy.Expr:
         """e_z . (t_a x (r_b - r_a)) (m): signed distance of end b from the tangent line at a,
-        counter-clockwise positive; t_a is the unit tangent at a (MODELS.md, tip2)."""
+        counter-clockwise positive; t_a is the unit tangent at a (docs/beams.md)."""
         (xa, ya), (xb, yb) = self.end_position("a"), self.end_position("b")
         tx, ty = self.end_direction("a")
         return (tx * (yb - ya) - ty * (xb - xa)) / sympy.sqrt(tx**2 + ty**2)

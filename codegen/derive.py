@@ -1,6 +1,6 @@
 """derive: a checked IR Model to a SymbolicSystem (pure mathematics, no strings of code).
 
-Equations (docs/generated-module.md, METHOD.md section 1):
+Equations (docs/generated-module.md, docs/method.md section 1):
     M q'' + Phi_q^T lambda = f(q, q', t),   Phi(q, t) = 0,
     Phi_q q'' = gamma = -(Phi_q q')_q q' - 2 Phi_qt q' - Phi_tt.
 """

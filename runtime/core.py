@@ -57,13 +57,18 @@ def cache_root() -> Path:
     return Path(tempfile.gettempdir()) / f"depsim-{user}"
 
 
-@functools.cache
 def compiler() -> tuple[str, ...]:
-    """The C compiler command: $CC, else cc, gcc or clang on the PATH; CBuildError when there
-    is none."""
-    for candidate in (os.environ.get("CC"), "cc", "gcc", "clang"):
-        if candidate and shutil.which(candidate.split()[0]):
-            return tuple(candidate.split())
+    """The C compiler command: $CC when set, else cc, gcc or clang on the PATH; CBuildError
+    naming what to install when there is none."""
+    chosen = os.environ.get("CC", "").strip()
+    if chosen:
+        if shutil.which(chosen.split()[0]) is None:
+            raise CBuildError(f"CC is set to '{chosen}', which is not a program here; "
+                              "set CC to an installed C compiler, or unset it to use cc")
+        return tuple(chosen.split())
+    for candidate in ("cc", "gcc", "clang"):
+        if shutil.which(candidate):
+            return (candidate,)
     raise CBuildError(NO_COMPILER)
 
 

@@ -3,7 +3,8 @@
  *
  *     v_pos = -Phi(q, t),  v_vel = -Phi_q qd - Phi_t,  v_acc = gamma(q, qd, t) - Phi_q qdd.
  *
- * Port of constraints.py (ConstraintSet, HingeLock, LinearConstraint, check_consistency).
+ * A run's state (after the start and every event) must satisfy the position and velocity
+ * levels to CONSISTENCY tolerances; dep_check_consistency names the worst joint otherwise.
  */
 #include <math.h>
 #include <stdio.h>

@@ -1,4 +1,4 @@
-/* controller.c: step size control and the multiplier predictor. Port of controller.py.
+/* controller.c: step size control and the multiplier predictor (docs/method.md, 3-4).
  *
  * The new step h_new = fac h combines the error of the multiplier interpolation (~h^4) with
  * the ODE method's own error (~h^5), both in the weighted RMS norm (1: at tolerance); a step
@@ -18,7 +18,7 @@
 #define RHO_TARGET 0.2 /* wanted contraction rate of the position pass */
 
 /* 3-point Gauss-Legendre on [0, 1] for integral (1 - s) f(s) ds, as numpy's leggauss gives
-   them (controller.py LambdaHistory.NODES, WEIGHTS). */
+   them (3-point Gauss-Legendre on [0, 1]). */
 static const double NODES[3] = {0.1127016653792583, 0.5, 0.8872983346207417};
 static const double WEIGHTS[3] = {0.24647175961687276, 0.2222222222222222,
                                   0.03130601816090509};
@@ -80,7 +80,7 @@ void dep_history_add(dep_history *history, double t, const double *lam)
 
 /* The position pass's starting lambda_{i+1} for a step ending at t: lambda_i +
    6 integral_0^1 (1 - s)(lambda(t_i + s h) - lambda_i) ds for the polynomial through the
-   stored points (see controller.py). */
+   stored points. */
 void dep_history_predict(const dep_history *history, double t, double *out)
 {
     int n = history->count, nc = history->nc;

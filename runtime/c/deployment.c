@@ -1,6 +1,5 @@
 /* deployment.c: the modes of the model's hinges with latches, hard stops and stick-slip
- * friction, and the events that change them. Port of deployment.py's Mechanism (and
- * HingeMechanics; docs/deployment.md).
+ * friction, and the events that change them (docs/deployment.md).
  *
  * A hinge with a `latch`, `stop_min`/`stop_max` or `static_friction` in hinge_properties()
  * keeps a mode; one event per (hinge, kind) has g > 0 while the mode holds and falls through

@@ -1,12 +1,10 @@
-/* depsim.h: the iterative Lagrange-multiplier integrator in C (docs/c-target.md).
- *
- * A C port of depsim.runtime.simulate (docs/method.md): lambda linear over each step,
+/* depsim.h: depsim's integrator core, the one implementation of the iterative
+ * Lagrange-multiplier method (docs/method.md, docs/c-target.md): lambda linear over each step,
  * Dormand-Prince 5(4) for the motion, three passes of the iteration (6) per step (position,
  * velocity, acceleration), step control from the ODE and interpolation errors, dense output,
- * events. It follows the Python integrator step for step, so both give the same numbers to
- * round-off; it reads the model only through `dep_model` (depsim_model.h). With
- * `mechanics` set it applies the hinges' latches, hard stops and stick-slip friction from
- * `hinge_properties` as depsim.runtime does (deployment.py, transitions.py).
+ * events, and the hinges' friction, latches, hard stops and stick-slip (docs/deployment.md).
+ * It reads a model only through `dep_model` (depsim_model.h): a compiled model.c, or a
+ * binding's (depsim.runtime.simulate fills one from a generated NumPy module).
  *
  *     dep_settings settings = dep_default_settings(&depsim_model);
  *     dep_result result;
@@ -30,8 +28,8 @@
 /* Return codes of dep_simulate, also dep_error.code. */
 enum dep_status {
     DEP_OK = 0,
-    DEP_SOLVER_ERROR = 3,    /* the integration cannot go on: Python's SolverError */
-    DEP_SETTINGS_ERROR = 4,  /* a bad setting or parameter value: Python's ValueError */
+    DEP_SOLVER_ERROR = 3,    /* the integration cannot go on (depsim.runtime.SolverError) */
+    DEP_SETTINGS_ERROR = 4,  /* a bad setting or parameter value (Python: ValueError) */
     DEP_CALLBACK_ERROR = 5,  /* an event function or callback reported failure */
     DEP_MEMORY_ERROR = 6,    /* out of memory */
     DEP_INTERRUPTED = 7      /* the progress callback asked to stop */

@@ -1,6 +1,6 @@
 /* dopri.c: Dormand-Prince 5(4), one explicit step with its error estimate and continuous
  * extension (Shampine's quartic), and the quintic Hermite interpolant of an accepted step of
- * the multiplier method. Port of dopri.py; coefficients as there (Dormand & Prince 1980;
+ * the multiplier method. Coefficients of Dormand & Prince (1980;
  * Hairer, Norsett & Wanner, Solving ODEs I, II.6).
  */
 #include <math.h>
@@ -130,7 +130,7 @@ void dep_interpolant_data(double h, const double *q0, const double *qd0, const d
 
 /* q at t on the quintic Hermite interpolant of the two accepted states (q, qd, qdd at both
    ends) and qd on the cubic Hermite interpolant of (qd, qdd): O(h^5) or better, see
-   dopri.py StepInterpolant. */
+   the method's step interpolant (docs/method.md, 5). */
 void dep_interpolate(const double *data, double t0, double h, int nq, double t, double *q,
                      double *qd)
 {

@@ -1,5 +1,5 @@
-/* events.c: zero crossings of g(t, q, qd) located on a step's dense output. Port of
- * events.py (EventWatch) with scipy's brentq (scipy/optimize/Zeros/brentq.c) for the root.
+/* events.c: zero crossings of g(t, q, qd) located on a step's dense output, the root
+ * by Brent's method (as in scipy's brentq, scipy/optimize/Zeros/brentq.c).
  */
 #include <math.h>
 #include <stdio.h>
@@ -179,7 +179,7 @@ static int brentq(root_function *f, double xa, double xb, double xtol, double rt
 /* The earliest crossing in (t0, t1] of an armed event: *index (or -1), its time and the sign
    of g just after it. rows1: the multipliers at t1; q, qd, rows: scratch for the dense output.
    A crossing whose g, re-evaluated at t0 on the dense output, is already on g1's side (within
-   round-off of zero at the step's start) is at t0 (events.py _root). */
+   round-off of zero at the step's start) is at t0. */
 int dep_first_crossing(dep_watch *watch, double t0, double t1, const double *q1,
                        const double *qd1, const dep_active_rows *rows1,
                        dep_dense_function dense, void *context, double *q, double *qd,

@@ -1,4 +1,4 @@
-/* impacts.c: the event-time solves of latches.py, all by the iteration (6) with C = 1 (no
+/* impacts.c: the event-time solves of latches and stops, all by the iteration (6) with C = 1 (no
  * factorisation): the plastic impact with unilateral stop rows (an active-set loop), the
  * M-orthogonal projections of q and qd onto the constraints, and the acceleration pass on any
  * constraint set (the holding torques of lock rows).

@@ -1,5 +1,5 @@
-/* integrator.c: dep_simulate, the iterative Lagrange-multiplier integrator of the seed paper.
- * Port of integrator.py (IterativeRun), step for step:
+/* integrator.c: dep_simulate, the iterative Lagrange-multiplier integrator of the seed paper
+ * (docs/method.md):
  *
  * check the initial state, find lambda_0 (acceleration pass), then take steps (stepper.c),
  * control the step with the ODE and interpolation errors (controller.c), sample outputs on
@@ -12,8 +12,7 @@
 
 #include "runtime.h"
 
-/* Build with -DDEP_TRACE to print every attempted step to stderr, for comparison with the
-   Python integrator (tests/c/trace.py prints the same lines). */
+/* Build with -DDEP_TRACE to print every attempted step to stderr (where two runs part). */
 #ifdef DEP_TRACE
 #define TRACE(...) fprintf(stderr, __VA_ARGS__)
 #else

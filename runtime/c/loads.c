@@ -1,5 +1,5 @@
-/* loads.c: hinge reaction loads from the multipliers, and their running peaks. Port of the
- * parts of loads.py the integrator uses (hinge_forces, lock_torques, PeakTracker).
+/* loads.c: hinge reaction loads from the multipliers, and their running peaks at the
+ * accepted steps (summary.c merges them with the output times').
  *
  * A hinge's rows "<h>.x", "<h>.y" = r_a - r_b give the force on member b from member a,
  * F_h = (lambda_x, lambda_y) (N, world frame); a lock row "<h>.latch", "<h>.stop",

@@ -5,7 +5,7 @@
  * v is one level's constraint error, C that level's sensitivity to lambda_{i+1} (h^2/6, h/2,
  * 1), A ~ S^-1 with S = Phi_q M^-1 Phi_q^T applied by Jacobi-preconditioned conjugate
  * gradients (products with Phi_q, M^-1, Phi_q^T only; nothing is factorised). The step is
- * halved while a trial does not reduce max|v|. Port of multipliers.py.
+ * halved while a trial does not reduce max|v| (docs/method.md, 2).
  */
 #include <math.h>
 #include <stdio.h>

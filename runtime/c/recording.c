@@ -1,5 +1,5 @@
-/* recording.c: samples the solution at the output times and assembles the result. Port of
- * recording.py (output_times, Recorder) and of the Result's arrays.
+/* recording.c: samples the solution at the output times and assembles the result's
+ * arrays (docs/method.md, 5).
  */
 #include <math.h>
 #include <stdlib.h>

@@ -1,5 +1,5 @@
-/* settle.c: settling the mechanism's modes at an event. Port of transitions.py's settle,
- * violated and Context (docs/deployment.md, sections 1-4).
+/* settle.c: settling the mechanism's modes at an event (docs/deployment.md,
+ * sections 1-4).
  *
  * dep_settle applies the transitions due (transitions.c), then, until none is left, every
  * transition whose event function is already negative at the current state (two hinges

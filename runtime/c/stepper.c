@@ -1,5 +1,5 @@
 /* stepper.c: one step of the paper's method, lambda(t) linear over the step and three passes
- * of the iteration (6). Port of stepper.py (velocity pass "project"):
+ * of the iteration (6) (docs/method.md, 2):
  *
  *   1. position:     re-integrate (DOPRI 5(4)) until v_pos(q_{i+1}) is small, C = h^2/6
  *   2. velocity:     apply the frozen-Phi_q effect -(h/2) M^-1 Phi_q^T d(lambda) on qd_{i+1}
@@ -179,7 +179,7 @@ int dep_acceleration(dep_stepper *stepper, const double *q, const double *qd, do
 /* ---- one step ---------------------------------------------------------------------------- */
 
 /* The trajectory for a trial lambda_{i+1}: one DOPRI step into the slot, unless the same
-   lambda was integrated last (the memo of stepper.py). */
+   lambda was integrated last. */
 static void integrate(dep_stepper *stepper, const double *lam1, dep_measurement *out)
 {
     int nc = stepper->constraints->nc;

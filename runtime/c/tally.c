@@ -1,5 +1,4 @@
-/* tally.c: a run's work and accuracy counters, frozen into dep_stats at the end. Port of
- * tally.py.
+/* tally.c: a run's work and accuracy counters, frozen into dep_stats at the end.
  */
 #include <math.h>
 #include <string.h>

@@ -108,6 +108,46 @@ def run_study(study: Study, *, workers: int | None = None, scheduler=None,
         raise SweepSpecError("resume needs the output file of the interrupted study "
                              "(store=..., -o FILE)")
     require_studies()
+    plan = _plan(study)
+    records: dict[int, dict] = {}
+    checkpoint = None
+    if store is not None:
+        store = Path(store)
+        if resume and store.exists() and not partial_path(store).exists():
+            complete = _complete_study(store, plan.fingerprint)
+            if complete is not None:
+                return complete
+        checkpoint = Checkpoint(partial_path(store), plan.fingerprint, study.design.runs,
+                                study.design.seed)
+        if resume:
+            records = checkpoint.load()
+        checkpoint.open(records)
+    _run_missing(plan, records, checkpoint, workers, scheduler, batch_size, progress, on_batch)
+    ds = build_dataset(records, study.design, static_metrics=plan.static,
+                       user_metrics=list(plan.config.metrics), output_names=plan.outputs,
+                       time_grid=plan.config.time_grid, attrs=plan.attrs)
+    if store is not None:
+        write_dataset(ds, store)
+        checkpoint.remove()
+    return ds
+
+
+@dataclasses.dataclass(frozen=True)
+class _Plan:
+    """What a study's execution needs, derived once from the Study."""
+
+    ref: ModuleRef
+    design: Design
+    config: RunConfig
+    static: list
+    outputs: tuple[str, ...]
+    fingerprint: str
+    attrs: dict
+
+
+def _plan(study: Study) -> _Plan:
+    """Load and check the module and the design; the run configuration, the metric names,
+    the fingerprint of everything that decides the numbers, the file's attributes."""
     ref = ModuleRef.from_path(study.module_path)
     module = load_module(ref)
     design = study.design
@@ -125,7 +165,18 @@ def run_study(study: Study, *, workers: int | None = None, scheduler=None,
     settings = {"t_end": study.t_end, "dt_out": study.dt_out, "tol": study.tol,
                 "builtin_metrics": study.builtin_metrics}
     fp = fingerprint(ref.sha256, names, design.matrix, settings, static, grid)
-    attrs = {
+    return _Plan(ref, design, config, static, tuple(getattr(module, "OUTPUTS", ())), fp,
+                 _attributes(study, module, ref, fp))
+
+
+def _attributes(study: Study, module: ModuleType, ref: ModuleRef, fp: str) -> dict:
+    """The NetCDF file's global attributes."""
+    design = study.design
+
+    def setting(value, name):
+        return float(value if value is not None else getattr(module, name, np.nan))
+
+    return {
         "title": f"depsim parameter study of {getattr(module, 'MODEL_NAME', '?')}",
         "model": str(getattr(module, "MODEL_NAME", "")),
         "source_file": str(getattr(module, "SOURCE_FILE", "")),
@@ -138,28 +189,27 @@ def run_study(study: Study, *, workers: int | None = None, scheduler=None,
         "seed": design.seed,
         "runs": design.runs,
         "varied": ", ".join(design.varied),
-        "t_end": float(study.t_end if study.t_end is not None
-                       else getattr(module, "T_END", np.nan)),
-        "tol": float(study.tol if study.tol is not None else getattr(module, "TOL", np.nan)),
-        "dt_out": float(study.dt_out if study.dt_out is not None
-                        else getattr(module, "DT_OUT", np.nan)),
+        "t_end": setting(study.t_end, "T_END"),
+        "tol": setting(study.tol, "TOL"),
+        "dt_out": setting(study.dt_out, "DT_OUT"),
         "fingerprint": fp,
     }
-    checkpoint = None
-    records: dict[int, dict] = {}
-    if store is not None:
-        store = Path(store)
-        if resume and store.exists() and not partial_path(store).exists():
-            try:
-                existing = open_study(store)
-            except Exception:
-                existing = None
-            if existing is not None and existing.attrs.get("fingerprint") == fp:
-                return existing  # already complete
-        checkpoint = Checkpoint(partial_path(store), fp, design.runs, design.seed)
-        if resume:
-            records = checkpoint.load()
-        checkpoint.open(records)
+
+
+def _complete_study(store: Path, fp: str):
+    """The finished study in `store` when it is this one, else None."""
+    try:
+        existing = open_study(store)
+    except Exception:
+        return None
+    return existing if existing.attrs.get("fingerprint") == fp else None
+
+
+def _run_missing(plan: _Plan, records: dict, checkpoint, workers, scheduler, batch_size,
+                 progress, on_batch) -> None:
+    """Run every run not in `records`, adding them there (and to the checkpoint) batch by
+    batch. On Ctrl-C or a stopped study the checkpoint keeps what finished."""
+    design = plan.design
     todo = [i for i in range(design.runs) if i not in records]
     failed = sum(1 for r in records.values() if r["failed"])
     bar = ProgressBar(design.runs, len(records), failed, enabled=progress)
@@ -168,8 +218,8 @@ def run_study(study: Study, *, workers: int | None = None, scheduler=None,
         if todo:
             # closing(): stop the workers at once when this loop ends by an exception
             # (Ctrl-C, on_batch raising), not when the generator is garbage-collected.
-            batches = contextlib.closing(_execute(ref, config, design.matrix, todo, workers,
-                                                  scheduler, batch_size))
+            batches = contextlib.closing(_execute(plan.ref, plan.config, design.matrix, todo,
+                                                  workers, scheduler, batch_size))
             with batches as finished:
                 for batch_records in finished:
                     fresh = [r for r in batch_records if r["run"] not in records]
@@ -192,13 +242,6 @@ def run_study(study: Study, *, workers: int | None = None, scheduler=None,
                       file=sys.stderr)
         raise
     bar.close()
-    ds = build_dataset(records, design, static_metrics=static, user_metrics=list(metrics),
-                       output_names=tuple(getattr(module, "OUTPUTS", ())), time_grid=grid,
-                       attrs=attrs)
-    if store is not None:
-        write_dataset(ds, store)
-        checkpoint.remove()
-    return ds
 
 
 STUDY_PACKAGES = ("xarray", "h5netcdf", "h5py")  # the `studies` extra (dask: its schedulers)

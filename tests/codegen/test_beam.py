@@ -18,7 +18,7 @@ from depsim.dsl import ir
 SPAN = ir.Span("test.dep", 1, 1, 1, 1)
 # parameter vector of these tests: beam length, EI, EA, rho A, damping coefficient beta
 PARAMS = sympy.symbols("L EI EA rhoA beta", positive=True)
-# MODELS.md M2 link: L = 1 m, EI = 2e11 * 5e-9 N m^2, EA = 2e11 * 2.449e-4 N, 5 kg/m
+# docs/examples.md, two flexible links link: L = 1 m, EI = 2e11 * 5e-9 N m^2, EA = 2e11 * 2.449e-4 N, 5 kg/m
 M2 = (1.0, 1000.0, 2e11 * 2.449e-4, 5.0, 0.0)
 # Euler-Bernoulli first roots: cantilever cos b cosh b = -1, free-free cos b cosh b = 1
 CANTILEVER_ROOT = 1.8751040687119611

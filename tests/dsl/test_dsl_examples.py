@@ -1,4 +1,4 @@
-"""The shipped examples check clean, and their IR says what MODELS.md says."""
+"""The shipped examples check clean, and their IR says what docs/examples.md says."""
 
 from __future__ import annotations
 

@@ -1,7 +1,7 @@
-"""examples/intelsat5.dep (MODELS.md M1) deploying to its latches.
+"""examples/intelsat5.dep (docs/examples.md, INTELSAT V) deploying to its latches.
 
 Reference numbers and where they come from:
-* energies, statics at the end: closed forms from MODELS.md (spring torque T0 - k theta, cable
+* energies, statics at the end: closed forms from docs/examples.md (spring torque T0 - k theta, cable
   loops k_c/2 (sum c_i theta_i)^2);
 * the synchronisation bound: derived below from k_c and the spring and friction torques;
 * latch times: this implementation at tol 1e-8; at tol 1e-9 and 1e-10 they agree to 2e-6 s

@@ -63,3 +63,28 @@ def test_animate_writes_a_gif(cli, tmp_path):
                "--animate", gif)
     assert done.returncode == 0, done.stderr
     assert gif.read_bytes()[:6] in (b"GIF89a", b"GIF87a")
+
+
+def test_without_a_c_compiler_the_error_says_what_to_install(tmp_path):
+    """The integrator core is built with the machine's C compiler on first use: without one,
+    `depsim run` (either target) stops with exit 2 and names what to install."""
+    import os
+    import subprocess
+    import sys
+
+    bare = tmp_path / "bin"
+    bare.mkdir()
+    env = {k: v for k, v in os.environ.items() if k != "CC"}
+    env.update(PATH=str(bare), DEPSIM_CACHE=str(tmp_path / "cache"))
+    for target in ("numpy", "c"):
+        done = subprocess.run([sys.executable, "-m", "depsim", "run", EXAMPLES / "pendulum.dep",
+                               "--target", target, "-o", tmp_path / "out.csv"], env=env,
+                              capture_output=True, text=True)
+        assert done.returncode == 2, done.stderr
+        assert "no C compiler found" in done.stderr and "apt install gcc" in done.stderr
+        assert "Traceback" not in done.stderr
+    env["CC"] = "/no/such/cc"
+    done = subprocess.run([sys.executable, "-m", "depsim", "run", EXAMPLES / "pendulum.dep"],
+                          env=env, capture_output=True, text=True)
+    assert done.returncode == 2 and "CC is set to '/no/such/cc'" in done.stderr
+    assert not (tmp_path / "out.csv").exists()

@@ -1,4 +1,4 @@
-"""examples/two_link_flex.dep (MODELS.md M2, the seed's section 3 example) through the real
+"""examples/two_link_flex.dep (docs/examples.md, two flexible links, the seed's section 3 example) through the real
 pipeline: load -> with_elements -> compile(target="numpy") -> the iterative integrator, and
 the `--elements` option of the command line.
 
@@ -103,7 +103,7 @@ def test_example_is_models_md_m2():
 
 def test_initial_state_and_outputs_follow_the_m2_conventions(m2):
     """Link 1 hangs straight down, link 2 is straight at 5 deg from -y (counter-clockwise, tip
-    at x > 0), undeformed and at rest; chord2 and tip2 are the MODELS.md definitions."""
+    at x > 0), undeformed and at rest; chord2 and tip2 are the docs/examples.md definitions."""
     module, p = m2.module, m2.defaults
     q0, qd0 = (np.asarray(a, dtype=float) for a in module.initial_state(p))
     index = {name: k for k, name in enumerate(module.COORDINATES)}

@@ -1,0 +1,220 @@
+/* method.h: the numerical method: the active constraint rows, Dormand-Prince 5(4) and
+ * its dense output, the iteration (6), step control and the predictor, one step of the
+ * three passes (constraints.c, dopri.c, multipliers.c, controller.c, stepper.c)
+ */
+#ifndef DEPSIM_METHOD_H
+#define DEPSIM_METHOD_H
+
+#include "system.h"
+
+/* ---- constraints.c: the active rows (the model's and those added by events) ----------- */
+
+typedef struct dep_added_row {
+    long long id; /* identity of a row, kept while it is active */
+    int kind, hinge;
+    char name[DEP_NAME_MAX], joint[DEP_NAME_MAX];
+    double angle, value;
+    double *row; /* nq, DEP_ROW_LINEAR */
+} dep_added_row;
+
+typedef struct dep_constraints {
+    const dep_system *system;
+    int nq, nc_module, n_added, nc, capacity;
+    long long next_id;
+    dep_added_row added[DEP_MAX_ADDED];
+    const char **row_names; /* capacity */
+    const char **row_joints;
+    double *values, *theta, *hinge_jacobian; /* scratch */
+} dep_constraints;
+
+int dep_constraints_init(dep_constraints *cs, const dep_system *system, dep_arena *arena);
+void dep_cs_phi(dep_constraints *cs, const double *q, double t, double *out);
+void dep_cs_jacobian(dep_constraints *cs, const double *q, double t, double *J);
+void dep_cs_jacobian_transpose_times(dep_constraints *cs, const double *q, double t,
+                                     const double *lam, double *out);
+void dep_cs_phi_t(dep_constraints *cs, const double *q, double t, double *out);
+void dep_cs_gamma(dep_constraints *cs, const double *q, const double *qd, double t, double *out);
+void dep_cs_v_vel(dep_constraints *cs, const double *q, const double *qd, double t,
+                  const double *J, double *out);
+void dep_cs_v_acc(dep_constraints *cs, const double *q, const double *qd, const double *qdd,
+                  double t, const double *J, double *out);
+void dep_cs_describe(const dep_constraints *cs, int row, char *joint_text, size_t size);
+int dep_cs_remove(dep_constraints *cs, const char *name);
+int dep_cs_add(dep_constraints *cs, const dep_row *row, dep_error *error);
+int dep_cs_add_row(dep_constraints *cs, const dep_added_row *row, dep_error *error);
+int dep_cs_index(const dep_constraints *cs, const char *name); /* -1 when not active */
+void dep_cs_assign(dep_constraints *cs, const dep_added_row *rows, int n);
+int dep_check_consistency(dep_constraints *cs, double t, const double *q, const double *qd,
+                          double tol, const char *stage, double *scratch, dep_error *error);
+
+/* ---- dopri.c: Dormand-Prince 5(4), its dense output, the quintic step interpolant ------- */
+
+typedef void (*dep_rhs_function)(void *context, double t, const double *y, double *dy);
+
+typedef struct dep_rk_step {
+    int n;
+    double t0, h;
+    const double *y0;
+    double *y1, *error, *K; /* n, n, 7 x n */
+} dep_rk_step;
+
+int dep_rk_init(dep_rk_step *rk, int n, dep_arena *arena);
+void dep_dopri_step(dep_rk_step *rk, dep_rhs_function rhs, void *context, double t0,
+                    const double *y0, const double *k1, double h, double *scratch);
+void dep_dense_components(const dep_rk_step *rk, double t, int first, int count, double *out);
+void dep_interpolant_data(double h, const double *q0, const double *qd0, const double *qdd0,
+                          const double *q1, const double *qd1, const double *qdd1, int nq,
+                          double *data);
+void dep_interpolate(const double *data, double t0, double h, int nq, double t, double *q,
+                     double *qd);
+
+/* ---- multipliers.c: the iteration (6) with conjugate gradients on S = J M^-1 J^T -------- */
+
+enum dep_stage { DEP_POSITION = 0, DEP_VELOCITY = 1, DEP_ACCELERATION = 2 };
+extern const char *const dep_stage_names[3];
+
+#define DEP_MAX_ITERATIONS 25
+#define DEP_MAX_HALVINGS 4
+
+typedef struct dep_pass_report {
+    int stage, iterations, n_errors;
+    long long cg_iterations;
+    double errors[DEP_MAX_ITERATIONS + 1];
+} dep_pass_report;
+
+typedef struct dep_failure {
+    int stage, row;
+    double residual, scale;
+    char reason[256];
+} dep_failure;
+
+typedef struct dep_measurement {
+    double *v;                 /* nc */
+    double *J_own;             /* nc x nq storage when the pass measures its own Jacobian */
+    const double *J;           /* the Jacobian of v */
+    long long jacobian_id;     /* identity of J's contents (the Schur cache key) */
+    double scale;
+    double *x;                 /* nq: the pass's vector (qd1, qdd, qd+) */
+    dep_rk_step rk;            /* the position pass's trajectory */
+} dep_measurement;
+
+typedef void (*dep_measure_function)(void *context, const double *lam, dep_measurement *out);
+
+typedef struct dep_multipliers { /* scratch of the iteration and its Schur-complement cache */
+    int nq, capacity;
+    const dep_mass *mass;
+    long long schur_id;
+    int schur_nc, schur_explicit;
+    double *S, *diag, *MinvJT, *column;
+    double *x, *r, *z, *d, *Sd, *inv_diag, *step, *trial_lam, *work;
+} dep_multipliers;
+
+int dep_multipliers_init(dep_multipliers *mp, const dep_mass *mass, int nq, int capacity,
+                         dep_arena *arena);
+int dep_measurement_init(dep_measurement *m, int nq, int capacity, int ny, int own_jacobian,
+                         dep_arena *arena);
+int dep_iterate_multipliers(dep_multipliers *mp, int stage, double *lam, int nc,
+                            dep_measure_function measure, void *context, double C, double tol,
+                            dep_measurement *slots[2], dep_measurement **final,
+                            dep_pass_report *report, dep_failure *failure);
+double dep_max_abs(const double *v, int n);
+double dep_product_scale(const double *J, int nc, int nq, const double *x);
+int dep_project_velocity(dep_multipliers *mp, const double *J, long long jacobian_id, int nc,
+                         const double *qd, const double *phi_t, double tol, double *qd_new,
+                         double *mu, dep_measurement *slots[2], dep_pass_report *report,
+                         dep_failure *failure);
+
+/* ---- controller.c: step size control and the multiplier predictor --------------------- */
+
+#define DEP_HISTORY 4
+
+typedef struct dep_history {
+    int count, nc;
+    double t[DEP_HISTORY];
+    double *lam[DEP_HISTORY]; /* oldest first; capacity each */
+} dep_history;
+
+int dep_history_init(dep_history *history, int capacity, dep_arena *arena);
+void dep_history_reset(dep_history *history, double t, const double *lam, int nc);
+void dep_history_add(dep_history *history, double t, const double *lam);
+void dep_history_predict(const dep_history *history, double t, double *out);
+void dep_weights(const double *y0, const double *y1, int n, double tol, double *scale);
+double dep_rms(const double *x, const double *scale, int n);
+double dep_interpolation_error(double h, const dep_history *history, const double *lam1,
+                               const double *J1, const dep_mass *mass, const double *scale_q,
+                               int nq, double *scratch);
+double dep_step_factor(double err_lam, double err_ode, int accepted);
+double dep_convergence_factor(const dep_pass_report *report);
+double dep_initial_step(dep_rhs_function rhs, void *context, double t0, const double *y0,
+                        const double *f0, int n, double tol, double span, double *scratch);
+
+/* ---- stepper.c: one step of the method, and pass 3 alone --------------------------------- */
+
+/* Pass 3 on any constraint set: lambda (in: the guess) and qdd at (q, qd, t) from (1) and
+   (2c). Buffers: f, jt, solved (nq), gamma (nc). */
+typedef struct dep_acceleration_work {
+    const dep_system *system;
+    dep_constraints *cs;
+    dep_multipliers *mp;
+    dep_measurement *slots[2];
+    double *f, *jt, *solved, *gamma;
+} dep_acceleration_work;
+
+int dep_acceleration_pass(dep_acceleration_work *w, const double *q, const double *qd,
+                          double t, const double *J, long long jacobian_id, double *lam,
+                          double *qdd, double tol, dep_pass_report *report,
+                          dep_failure *failure);
+
+typedef struct dep_state {
+    double t;
+    double *q, *qd, *qdd, *lam, *work;
+} dep_state;
+
+typedef struct dep_outcome {
+    dep_state state;
+    const dep_rk_step *rk;   /* the trajectory (valid until the next step) */
+    const double *J1;        /* Phi_q at the new state */
+    double *data;            /* 10 x nq: the step interpolant (dep_interpolant_data) */
+    dep_pass_report reports[3];
+    int integrations;
+} dep_outcome;
+
+typedef struct dep_stepper {
+    const dep_system *system;
+    dep_constraints *constraints;
+    dep_multipliers mp;
+    int nq, ny, capacity;
+    double tol, constraint_tol;
+    long long rhs_evaluations, integrations, jacobian_ids;
+    dep_measurement slots[6], *final_position;
+    /* the step being taken */
+    const dep_state *start;
+    double h, t1, rhs_t0;
+    double *y0, *k1, *slope, *lam0, *rhs_lam, *force, *jt_lam, *scratch;
+    double *memo_lam;
+    double *q1, *phi_t1, *lam_pos;
+    const dep_rk_step *memo_rk;
+    int memo_valid, integrations_this_step;
+    double *restart_J;
+    dep_acceleration_work accel;
+} dep_stepper;
+
+double dep_constraint_tolerance(double tol);
+int dep_stepper_init(dep_stepper *stepper, const dep_system *system, dep_constraints *cs,
+                     double tol, dep_arena *arena);
+int dep_state_init(dep_state *state, int nq, int capacity, int nd, dep_arena *arena);
+void dep_state_copy(dep_state *to, const dep_state *from, int nq, int nc, int nd);
+int dep_outcome_init(dep_outcome *outcome, int nq, int capacity, int nd, dep_arena *arena);
+void dep_stepper_derivative(dep_stepper *stepper, const dep_state *state, double *dy);
+void dep_stepper_rhs(void *context, double t, const double *y, double *dy);
+void dep_stepper_set_rhs(dep_stepper *stepper, double t0, double h, const double *lam0,
+                         const double *lam1);
+int dep_acceleration(dep_stepper *stepper, const double *q, const double *qd, double t,
+                     double *lam, const double *J, long long jacobian_id, double *qdd,
+                     dep_pass_report *report, dep_failure *failure);
+
+
+int dep_step(dep_stepper *stepper, const dep_state *state, double h, const double *lam_predicted,
+             dep_outcome *outcome, dep_failure *failure);
+
+#endif /* DEPSIM_METHOD_H */

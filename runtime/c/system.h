@@ -1,0 +1,101 @@
+/* system.h: the integrator's memory, errors and settings checks, the mass matrix, the
+ * hinges' properties and the model bound to one parameter vector (system.c, errors.c,
+ * mechanism.c)
+ */
+#ifndef DEPSIM_SYSTEM_H
+#define DEPSIM_SYSTEM_H
+
+#include <stddef.h>
+#include "depsim.h"
+
+#define DEP_EPS 2.220446049250313e-16 /* double machine epsilon */
+#define DEP_PASS_FAILED 100           /* internal: a pass did not converge  */
+
+/* ---- system.c: memory, errors, the mass matrix, the model bound to p ------------------ */
+
+typedef struct dep_arena { /* every allocation of a run, freed at once */
+    void **blocks;
+    int count, capacity;
+    int failed;
+} dep_arena;
+
+double *dep_doubles(dep_arena *arena, size_t n); /* zeroed; NULL (and arena->failed) on failure */
+void *dep_bytes(dep_arena *arena, size_t n);
+void dep_arena_free(dep_arena *arena);
+
+void dep_error_clear(dep_error *error);
+void dep_copy_text(char *to, size_t size, const char *from);
+/* Python's SolverError(what, t=, stage=, row=, joint=, residual=, hint=): fills every field and
+   the formatted message. Pass has_t/has_residual 0 and NULL strings for None. */
+int dep_solver_error(dep_error *error, int has_t, double t, const char *stage, const char *row,
+                     const char *joint, int has_residual, double residual, const char *what,
+                     const char *hint);
+int dep_plain_error(dep_error *error, int code, const char *message);
+void dep_repr(double value, char *out, size_t size); /* Python's repr(float) */
+int dep_check_settings(const dep_model *model, const double *p, const dep_settings *settings,
+                       dep_error *error);
+
+typedef struct dep_mass {
+    int n, diagonal;
+    double *matrix;           /* n x n */
+    double *inverse_diagonal; /* n, when diagonal */
+    double *cholesky;         /* n x n lower factor, otherwise */
+} dep_mass;
+
+void dep_mass_solve(const dep_mass *mass, const double *b, double *x); /* x = M^-1 b; x may be b */
+
+struct dep_mechanism;
+
+/* A hinge's runtime properties (from hinge_properties) and its mode. */
+enum dep_latch_state { DEP_OPEN, DEP_LATCHED, DEP_CONTACT, DEP_APART };
+enum dep_kind { DEP_KIND_LATCH, DEP_KIND_STOP_MIN, DEP_KIND_STOP_MAX, DEP_KIND_STICK };
+enum dep_stop_state { DEP_STOP_NONE = 0, DEP_STOP_MIN = 1, DEP_STOP_MAX = 2 };
+
+typedef struct dep_hinge_mechanics {
+    int index;
+    const char *name;
+    int has_latch, compliant, has_stop_min, has_stop_max, has_static, has_friction;
+    double latch, latch_stiffness, latch_damping, stop_min, stop_max;
+    double kinetic, static_friction, slip_rate; /* friction (N m), static (N m), rad/s */
+    double latch_side, direction;
+    int latch_state, stop, stuck; /* enum dep_latch_state, enum dep_stop_state, 0/1 */
+} dep_hinge_mechanics;
+
+/* The model bound to p, with the forces the integrator applies itself: each hinge's Coulomb
+   friction in its mode and the compliant latches' contact torques. Its dissipators are the
+   model's, then "friction.<h>" for each hinge with friction, then "latch.<h>" for each
+   compliant latch; its energies the model's, then "latch.<h>". */
+typedef struct dep_system {
+    const dep_model *model;
+    const double *p;
+    int nq, nd, nh, ne;
+    dep_mass mass;
+    dep_hinge_mechanics *hinges;     /* nh, every hinge */
+    int n_friction, n_compliant;     /* hinges with friction, compliant latches */
+    struct dep_mechanism *mechanism; /* NULL: no latch, stop or stick-slip (or mechanics off) */
+    const char **dissipator_names;   /* nd */
+    const char **energy_names;       /* ne */
+    double *angles, *rates, *tau, *hinge_jacobian; /* scratch: nh, nh, nh, nh x nq */
+} dep_system;
+
+/* mechanics 0: every hinge free (friction by the regularised law, no latch or stop modes). */
+int dep_system_init(dep_system *system, const dep_model *model, const double *p,
+                    int mechanics, dep_arena *arena, dep_error *error);
+
+/* mechanism.c: the hinge torques the integrator applies (friction, compliant contact). */
+double dep_friction_torque(const dep_hinge_mechanics *h, double rate);
+int dep_hinge_forcing(const dep_system *system);
+void dep_hinge_torques(const dep_system *system, const double *q, const double *qd,
+                       double *tau);
+void dep_hinge_dissipation(const dep_system *system, const double *q, const double *qd,
+                           double *power);
+void dep_hinge_energy(const dep_system *system, const double *q, double *energy);
+const char *dep_joint_kind(const dep_system *system, const char *joint);
+void dep_system_force(const dep_system *system, const double *q, const double *qd, double t,
+                      double *f);
+void dep_system_dissipation(const dep_system *system, const double *q, const double *qd,
+                            double t, double *power);
+void dep_system_energy(const dep_system *system, const double *q, const double *qd, double t,
+                       double *energy);
+
+#endif /* DEPSIM_SYSTEM_H */
