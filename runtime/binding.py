@@ -163,6 +163,7 @@ class NumpyModel:
             setattr(m, table.field, self._table(table, values))
         for field, constant in interface.SETTINGS:
             setattr(m, field, float(getattr(module, constant)))
+        self.functions = {f.name: getattr(module, f.name) for f in interface.FUNCTIONS}
         for function in interface.FUNCTIONS:
             setattr(m, function.name, self._own(self._callback(function)))
 
@@ -173,10 +174,21 @@ class NumpyModel:
 
     @contextlib.contextmanager
     def running(self):
-        """One run: clears the failure and the parameter list first."""
-        self._state.failure = None
-        self._state.p_pointer, self._state.p_list = None, None
-        yield self
+        """One run: a fresh failure and parameter list, the enclosing run's restored after it
+        (a run may be started from an event callback of another)."""
+        state = self._state
+        outer = (getattr(state, "failure", None), getattr(state, "p_pointer", None),
+                 getattr(state, "p_list", None))
+        state.failure, state.p_pointer, state.p_list = None, None, None
+        try:
+            yield self
+        finally:
+            state.failure, state.p_pointer, state.p_list = outer
+
+    def current(self) -> bool:
+        """Whether the module's functions are still those this binding calls."""
+        return all(getattr(self.module, name, None) is function
+                   for name, function in self.functions.items())
 
     def _own(self, value):
         self._keep.append(value)
@@ -220,11 +232,14 @@ class NumpyModel:
         state, memmove, name = self._state, view.memmove, function.name
 
         def fail(exc: BaseException, outputs) -> None:  # kept for simulate(); the core sees NaN
-            if getattr(state, "failure", None) is None:
-                state.failure = exc
+            record(exc)
             for out, size in zip(outputs, sizes):
                 for k in range(size):
                     out[k] = math.nan
+
+        def record(exc: BaseException) -> None:
+            if getattr(state, "failure", None) is None:
+                state.failure = exc
 
         def deliver(out, value, size: int) -> None:
             if value.__class__ is not np.ndarray or value.dtype != np.float64 \
@@ -256,7 +271,10 @@ class NumpyModel:
                 except BaseException as exc:
                     fail(exc, values[first_result:])
 
-        return view.callback(f"void(*)({interface.c_declaration(function)})", call)
+        # onerror: an exception raised before `call` enters its try (Ctrl-C arrives at the
+        # first instruction of a callback) is recorded too, never printed and lost
+        return view.callback(f"void(*)({interface.c_declaration(function)})", call,
+                             onerror=lambda kind, exc, trace: record(exc))
 
     def __repr__(self) -> str:
         return f"<NumPy model {self.sizes and getattr(self.module, 'MODEL_NAME', '?')!r}>"
@@ -264,11 +282,12 @@ class NumpyModel:
 
 def bind(module) -> CModule | NumpyModel:
     """The binding of a module for the core: a CModule is its own; a NumPy module's is built
-    once and kept on the module object (`__depsim_binding__`) while it lives."""
+    once and kept on the module object (`__depsim_binding__`) while it lives (built again
+    when a function of the module was replaced)."""
     if isinstance(module, (CModule, NumpyModel)):
         return module
     binding = getattr(module, "__depsim_binding__", None)
-    if binding is None or binding.module is not module:
+    if binding is None or binding.module is not module or not binding.current():
         binding = NumpyModel(module)
         with contextlib.suppress(AttributeError, TypeError):
             module.__depsim_binding__ = binding

@@ -21,6 +21,7 @@ import re
 import shutil
 import subprocess
 import tempfile
+import threading
 from pathlib import Path
 
 SOURCE_DIR = Path(__file__).resolve().parent / "c"
@@ -124,7 +125,26 @@ def core_sources() -> list[Path]:
     return sorted(p for p in SOURCE_DIR.glob("*.c") if p.name != PROGRAM_SOURCE)
 
 
-@functools.cache
+_FIRST_USE = threading.RLock()
+
+
+def _once(function):
+    """Call `function` once per process and keep its value; the first call is made under a
+    lock, so threads starting together get one FFI (cdata of two FFI instances do not mix)."""
+    done: list = []
+
+    @functools.wraps(function)
+    def call():
+        if not done:
+            with _FIRST_USE:
+                if not done:
+                    done.append(function())
+        return done[0]
+
+    return call
+
+
+@_once
 def core_library_path() -> Path:
     """The core library, built on first use (see the module docstring)."""
     return build_shared_library(core_sources(), cache_root() / "core", CORE_LIBRARY)
@@ -135,7 +155,7 @@ def _declarations(text: str) -> str:
     return re.sub(r"^\s*#(?!\s*define\s+\w+\s+\d+\b).*$", "", text, flags=re.MULTILINE)
 
 
-@functools.cache
+@_once
 def ffi():
     """The cffi view of the core's headers (structs, enums, functions) and of a compiled
     model's `depsim_model` symbol."""
@@ -147,7 +167,7 @@ def ffi():
     return view
 
 
-@functools.cache
+@_once
 def core():
     """The loaded core library (built on first use)."""
     return ffi().dlopen(str(core_library_path()))

@@ -49,33 +49,31 @@ def simulate(module, params: np.ndarray | None = None, t_end: float | None = Non
     bar = Progress(settings.t_end, progress)
 
     def report(_context, t):
-        try:
-            bar.update(t)
-        except BaseException as exc:  # Ctrl-C arrives here during a long C run
-            bridge.exception = bridge.exception or exc
+        bar.update(t)
         return int(bridge.exception is not None or binding.failure is not None)
 
-    settings.progress = progress_callback = view.callback("int(*)(void *, double)", report)
+    # A Python exception in a callback (Ctrl-C during a long C run arrives at the first one
+    # called) stops the run: recorded, the callback answers "stop", simulate raises it.
+    settings.progress = progress_callback = view.callback(
+        "int(*)(void *, double)", report, error=1, onerror=bridge.record)
     result, error = view.new("dep_result *"), view.new("dep_error *")
+    status = None
     try:
         with binding.running():
             status = library.dep_simulate(binding.pointer, view.from_buffer("double[]", p),
                                           settings, bridge.array, len(bridge.events), result,
                                           error)
             failure = bridge.exception or binding.failure
+        if failure is not None:
+            raise failure
+        if status != library.DEP_OK:
+            raise _exception(error)
+        return _result(model, result)
     finally:
         bar.close()
         del progress_callback
-    if failure is not None:
         if status == library.DEP_OK:
             library.dep_result_free(result)
-        raise failure
-    if status != library.DEP_OK:
-        raise _exception(error)
-    try:
-        return _result(model, result)
-    finally:
-        library.dep_result_free(result)
 
 
 def _setting(value, default) -> float:
@@ -231,9 +229,10 @@ class EventBridge:
             name = view.new("char[]", event.name.encode("utf-8"))
             function = view.callback("int(*)(void *, double, const double *, const double *, "
                                      "const dep_active_rows *, double *)",
-                                     self._function(event))
+                                     self._function(event), error=1, onerror=self.record)
             callback = view.callback("int(*)(void *, const dep_event_hit *, "
-                                     "dep_event_response *)", self._callback(event))
+                                     "dep_event_response *)", self._callback(event), error=1,
+                                     onerror=self.record)
             self.callbacks += [name, function, callback]
             c = self.array[k]
             c.name, c.function, c.callback = name, function, callback
@@ -241,6 +240,11 @@ class EventBridge:
             c.terminal = int(bool(event.terminal))
             c.max_hits = -1 if event.max_hits is None else int(event.max_hits)
             c.multipliers = int(bool(event.multipliers))
+
+    def record(self, _kind, exc: BaseException, _trace) -> None:
+        """cffi's onerror: an exception that escaped a callback (re-raised by simulate)."""
+        if self.exception is None:
+            self.exception = exc
 
     def _guard(self, work) -> int:
         if self.exception is not None:

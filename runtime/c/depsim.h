@@ -213,8 +213,8 @@ typedef struct dep_result {
     double *residual_pos, *residual_vel, *residual_acc; /* n */
     double *energy;                                  /* n x ne, J */
     double *dissipated;                              /* n x nd, J since t = 0 */
-    char **energy_names;           /* ne: the model's, then a compliant latch's spring */
-    char **dissipator_names;       /* nd: the model's, then "latch.<h>" */
+    char **energy_names;           /* ne: the model's, then "latch.<h>" (compliant springs) */
+    char **dissipator_names;       /* nd: the model's, then "friction.<h>", then "latch.<h>" */
     double *hinge_torque;          /* n x nh, N m lock torque on member b, NAN if free */
     dep_peak *peak_loads;          /* nh: over the output times and every accepted step */
     dep_deployment deployment;
