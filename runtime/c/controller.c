@@ -1,9 +1,11 @@
-/* controller.c: step size control and the multiplier predictor (docs/method.md, 3-4).
+/* controller.c: the multipliers' profile over a step, its predictor, and step size control
+ * (docs/method.md, 2-4).
  *
- * The new step h_new = fac h combines the error of the multiplier interpolation (~h^4) with
- * the ODE method's own error (~h^5), both in the weighted RMS norm (1: at tolerance); a step
- * is accepted when err_lam + err_ode <= 1 and fac solves
- * err_lam fac^4 + err_ode fac^5 = SAFETY, clipped to [FAC_MIN, FAC_MAX].
+ * lambda(t) over a step is the polynomial through the last accepted multipliers and the
+ * step's unknown end value (up to a cubic). The new step h_new = fac h combines the error of
+ * that interpolation (~h^(nodes + 3)) with the ODE method's own error (~h^5), both in the
+ * weighted RMS norm (1: at tolerance); a step is accepted when err_lam + err_ode <= 1 and fac
+ * solves err_lam fac^p + err_ode fac^5 = SAFETY, clipped to [FAC_MIN, FAC_MAX].
  */
 #include <math.h>
 #include <string.h>
@@ -13,15 +15,16 @@
 #define SAFETY 0.6
 #define FAC_MIN 0.2
 #define FAC_MAX 5.0
-#define INTERPOLATION_ORDER 4
 #define ERROR_ORDER 5
+#define PI_BETA 0.08
+#define DENSE_ORDER 4
+#define PI_FLOOR 1e-4
 #define RHO_TARGET 0.2 /* wanted contraction rate of the position pass */
 
-/* 3-point Gauss-Legendre on [0, 1] for integral (1 - s) f(s) ds, as numpy's leggauss gives
-   them (3-point Gauss-Legendre on [0, 1]). */
+/* 3-point Gauss-Legendre on [0, 1] (exact for polynomials up to degree 5): the nodes and the
+   plain weights. */
 static const double NODES[3] = {0.1127016653792583, 0.5, 0.8872983346207417};
-static const double WEIGHTS[3] = {0.24647175961687276, 0.2222222222222222,
-                                  0.03130601816090509};
+static const double PLAIN[3] = {0.2777777777777778, 0.4444444444444444, 0.2777777777777778};
 
 void dep_weights(const double *y0, const double *y1, int n, double tol, double *scale)
 {
@@ -78,67 +81,124 @@ void dep_history_add(dep_history *history, double t, const double *lam)
     history->count++;
 }
 
-/* The position pass's starting lambda_{i+1} for a step ending at t: lambda_i +
-   6 integral_0^1 (1 - s)(lambda(t_i + s h) - lambda_i) ds for the polynomial through the
-   stored points. */
-void dep_history_predict(const dep_history *history, double t, double *out)
+/* ---- the profile ------------------------------------------------------------------------ */
+
+/* The Lagrange basis at u of the nodes u[0..n-1] and 1 (the end): w[0..n]. */
+static void basis(const double *u, int n, double at, double *w)
 {
-    int n = history->count, nc = history->nc;
-    double t_i = history->t[n - 1], coefficients[DEP_HISTORY] = {0};
-    if (n == 1) {
-        memcpy(out, history->lam[0], (size_t)nc * sizeof *out);
-        return;
-    }
-    double h = t - t_i;
-    for (int g = 0; g < 3; ++g) {
-        double at = t_i + NODES[g] * h;
-        for (int j = 0; j < n; ++j) {
-            double weight = 1.0;
-            for (int m = 0; m < n; ++m) {
-                if (m != j) {
-                    weight *= (at - history->t[m]) / (history->t[j] - history->t[m]);
-                }
+    for (int j = 0; j <= n; ++j) {
+        double uj = j < n ? u[j] : 1.0, weight = 1.0;
+        for (int m = 0; m <= n; ++m) {
+            double um = m < n ? u[m] : 1.0;
+            if (m != j) {
+                weight *= (at - um) / (uj - um);
             }
-            coefficients[j] += WEIGHTS[g] * weight;
         }
+        w[j] = weight;
     }
-    for (int j = 0; j < n; ++j) {
-        coefficients[j] *= 6.0;
+}
+
+/* The profile of a step of size h from the last accepted point: after a (re)start with one
+   accepted multiplier, linear; with more, the polynomial through all but the oldest of them
+   (so that the oldest measures its error, dep_interpolation_error), up to a cubic. */
+void dep_profile_set(dep_profile *profile, const dep_history *history, double h)
+{
+    int n = history->count, nodes = n == 1 ? 1 : n - 1;
+    double t0 = history->t[n - 1], w[DEP_PROFILE_NODES + 1];
+    nodes = nodes < DEP_PROFILE_NODES ? nodes : DEP_PROFILE_NODES;
+    profile->t0 = t0;
+    profile->h = h;
+    profile->nodes = nodes;
+    for (int j = 0; j < nodes; ++j) {
+        int k = n - nodes + j;
+        profile->u[j] = (history->t[k] - t0) / h;
+        profile->lam[j] = history->lam[k];
     }
-    coefficients[n - 1] += 1.0 - 6.0 * (WEIGHTS[0] + WEIGHTS[1] + WEIGHTS[2]);
+    profile->position = profile->velocity = profile->excursion = 0.0;
+    for (int g = 0; g < 3; ++g) {
+        double s = NODES[g], product = s - 1.0;
+        basis(profile->u, nodes, s, w);
+        profile->position += PLAIN[g] * (1.0 - s) * w[nodes];
+        profile->velocity += PLAIN[g] * w[nodes];
+        for (int j = 0; j < nodes; ++j) {
+            product *= s - profile->u[j];
+        }
+        profile->excursion += PLAIN[g] * (1.0 - s) * fabs(product);
+    }
+}
+
+/* lambda held at `lam` over the step from t0 (the first step's trial). */
+void dep_profile_hold(dep_profile *profile, double t0, const double *lam)
+{
+    profile->t0 = t0;
+    profile->h = 1.0;
+    profile->nodes = 1;
+    profile->u[0] = 0.0;
+    profile->lam[0] = lam;
+    profile->position = 1.0 / 6.0;
+    profile->velocity = 0.5;
+    profile->excursion = 1.0 / 12.0;
+}
+
+/* lambda(t) (nc) of the profile with end value lam_end. */
+void dep_profile_value(const dep_profile *profile, const double *lam_end, double t, int nc,
+                       double *out)
+{
+    double w[DEP_PROFILE_NODES + 1];
+    int n = profile->nodes;
+    basis(profile->u, n, (t - profile->t0) / profile->h, w);
     for (int i = 0; i < nc; ++i) {
-        double sum = 0.0;
+        double sum = w[n] * lam_end[i];
         for (int j = 0; j < n; ++j) {
-            sum += coefficients[j] * history->lam[j][i];
+            sum += w[j] * profile->lam[j][i];
         }
         out[i] = sum;
     }
 }
 
+/* The position pass's starting lambda_{i+1}: the end value for which the profile pushes the
+   step end as the multipliers extrapolated from every accepted point would (for frozen
+   Phi_q): integral (1 - s) (profile(s) - extrapolation(s)) ds = 0. */
+void dep_history_predict(const dep_history *history, const dep_profile *profile, double *out)
+{
+    int n = history->count, nc = history->nc, nodes = profile->nodes;
+    double coefficients[DEP_HISTORY] = {0}, w[DEP_PROFILE_NODES + 1];
+    for (int g = 0; g < 3; ++g) {
+        double s = NODES[g], at = profile->t0 + s * profile->h, weight = PLAIN[g] * (1.0 - s);
+        for (int j = 0; j < n; ++j) { /* the extrapolation through every accepted point */
+            double value = 1.0;
+            for (int m = 0; m < n; ++m) {
+                if (m != j) {
+                    value *= (at - history->t[m]) / (history->t[j] - history->t[m]);
+                }
+            }
+            coefficients[j] += weight * value;
+        }
+        basis(profile->u, nodes, s, w); /* less the profile's own accepted part */
+        for (int j = 0; j < nodes; ++j) {
+            coefficients[n - nodes + j] -= weight * w[j];
+        }
+    }
+    for (int i = 0; i < nc; ++i) {
+        double sum = 0.0;
+        for (int j = 0; j < n; ++j) {
+            sum += coefficients[j] * history->lam[j][i];
+        }
+        out[i] = sum / profile->position;
+    }
+}
+
 /* ---- errors and the step factor ---------------------------------------------------------- */
 
-/* err_lam: the position excursion (h^4/24) M^-1 J1^T lambda'' of the linear interpolation,
-   lambda'' from the last two accepted lambdas and lam1. scratch: nc + 2 nq. */
-double dep_interpolation_error(double h, const dep_history *history, const double *lam1,
-                               const double *J1, const dep_mass *mass, const double *scale_q,
-                               int nq, double *scratch)
+/* The weighted size of h^2 c M^-1 J1^T d (nq scratch: 2 nq). */
+static double position_effect(const double *J1, const double *d, int nc, int nq, double factor,
+                              const dep_mass *mass, const double *scale_q, double *scratch)
 {
-    int nc = history->nc, n = history->count;
-    if (n < 2 || nc == 0) {
-        return 0.0;
-    }
-    double t_a = history->t[n - 2], t_b = history->t[n - 1];
-    const double *lam_a = history->lam[n - 2], *lam_b = history->lam[n - 1];
-    double h_prev = t_b - t_a, factor = pow(h, 4) / 24.0;
-    double *second = scratch, *column = scratch + nc, *excursion = scratch + nc + nq;
-    for (int i = 0; i < nc; ++i) {
-        second[i] = 2.0 * ((lam1[i] - lam_b[i]) / h - (lam_b[i] - lam_a[i]) / h_prev)
-                    / (h + h_prev);
-    }
+    double *column = scratch, *excursion = scratch + nq;
     for (int j = 0; j < nq; ++j) {
         double sum = 0.0;
         for (int i = 0; i < nc; ++i) {
-            sum += J1[i * nq + j] * second[i];
+            sum += J1[i * nq + j] * d[i];
         }
         column[j] = sum;
     }
@@ -149,35 +209,173 @@ double dep_interpolation_error(double h, const dep_history *history, const doubl
     return dep_rms(excursion, scale_q, nq);
 }
 
-static double excess(double err_lam, double err_ode, double fac)
+/* err_lam: the position excursion the profile's interpolation error causes inside the step,
+   h^2 integral (1 - s) |e(s)| ds M^-1 J1^T with e(t) = D prod_j (t - t_j), D the divided
+   difference of the accepted multipliers and lam1 of the order the profile misses (for a
+   linear profile: (h^4 / 24) M^-1 J1^T lambda''). Right after a (re)start, with one accepted
+   multiplier, from the end values instead: the linear profile's end value that the position
+   pass found undercuts the true lambda_{i+1} (lam1, from the acceleration pass) by
+   (h^2 / 4) lambda'', so the excursion is (h^2 / 6) M^-1 J1^T (lam1 - lam_position).
+   *order: its power of h. scratch: nc (n + 1) + 2 nq. */
+double dep_interpolation_error(const dep_profile *profile, const dep_history *history,
+                               const double *lam1, const double *lam_position,
+                               const double *J1, const dep_mass *mass, const double *scale_q,
+                               int nq, double *scratch, int *order)
 {
-    return err_lam * pow(fac, INTERPOLATION_ORDER) + err_ode * pow(fac, ERROR_ORDER) - SAFETY;
+    int nc = history->nc, n = history->count, points = n + 1;
+    *order = profile->nodes + 3;
+    if (nc == 0) {
+        return 0.0;
+    }
+    if (n < 2 || points != profile->nodes + 2) {
+        for (int i = 0; i < nc; ++i) {
+            scratch[i] = lam1[i] - lam_position[i];
+        }
+        return position_effect(J1, scratch, nc, nq, profile->h * profile->h / 6.0, mass,
+                               scale_q, scratch + nc);
+    }
+    double times[DEP_HISTORY + 1], *table = scratch, *column = scratch + (size_t)nc * points;
+    for (int k = 0; k < n; ++k) {
+        times[k] = history->t[k];
+        memcpy(table + (size_t)k * nc, history->lam[k], (size_t)nc * sizeof *table);
+    }
+    times[n] = profile->t0 + profile->h;
+    memcpy(table + (size_t)n * nc, lam1, (size_t)nc * sizeof *table);
+    for (int level = 1; level < points; ++level) { /* divided differences, in place */
+        for (int k = points - 1; k >= level; --k) {
+            double span = times[k] - times[k - level];
+            for (int i = 0; i < nc; ++i) {
+                table[(size_t)k * nc + i] = (table[(size_t)k * nc + i]
+                                             - table[(size_t)(k - 1) * nc + i]) / span;
+            }
+        }
+    }
+    const double *top = table + (size_t)(points - 1) * nc;
+    return position_effect(J1, top, nc, nq, pow(profile->h, *order) * profile->excursion, mass,
+                           scale_q, column);
 }
 
-/* fac = h_new / h solving err_lam fac^4 + err_ode fac^5 = SAFETY by Newton's method in
-   log fac, clipped to [FAC_MIN, FAC_MAX] (to 1 after a rejection). */
-double dep_step_factor(double err_lam, double err_ode, int accepted)
+/* The step errors and their powers of h: the ODE method's, the multipliers' interpolation
+   and the velocity outputs' interpolation (dep_step_errors). */
+static double excess(const dep_step_errors *e, double fac)
 {
-    double high = accepted ? FAC_MAX : 1.0, start = INFINITY;
-    if (excess(err_lam, err_ode, high) <= 0.0) {
+    return e->lam * pow(fac, e->lam_order) + e->dense * pow(fac, DENSE_ORDER)
+           + e->ode * pow(fac, ERROR_ORDER) - SAFETY;
+}
+
+static double slope(const dep_step_errors *e, double fac)
+{
+    return e->lam_order * e->lam * pow(fac, e->lam_order)
+           + DENSE_ORDER * e->dense * pow(fac, DENSE_ORDER)
+           + ERROR_ORDER * e->ode * pow(fac, ERROR_ORDER);
+}
+
+/* The fac solving excess(fac) = 0 (Newton's method in log fac), within [FAC_MIN, high]. */
+static double integral_factor(const dep_step_errors *e, double high)
+{
+    double start = INFINITY;
+    if (excess(e, high) <= 0.0) {
         return high;
     }
-    if (excess(err_lam, err_ode, FAC_MIN) >= 0.0) {
+    if (excess(e, FAC_MIN) >= 0.0) {
         return FAC_MIN;
     }
-    if (err_lam > 0.0) {
-        start = fmin(start, pow(SAFETY / err_lam, 1.0 / INTERPOLATION_ORDER));
+    if (e->lam > 0.0) {
+        start = fmin(start, pow(SAFETY / e->lam, 1.0 / e->lam_order));
     }
-    if (err_ode > 0.0) {
-        start = fmin(start, pow(SAFETY / err_ode, 1.0 / ERROR_ORDER));
+    if (e->dense > 0.0) {
+        start = fmin(start, pow(SAFETY / e->dense, 1.0 / DENSE_ORDER));
+    }
+    if (e->ode > 0.0) {
+        start = fmin(start, pow(SAFETY / e->ode, 1.0 / ERROR_ORDER));
     }
     double x = log(start);
     for (int k = 0; k < 6; ++k) {
-        double a = err_lam * exp(INTERPOLATION_ORDER * x);
-        double b = err_ode * exp(ERROR_ORDER * x);
-        x -= (a + b - SAFETY) / (INTERPOLATION_ORDER * a + ERROR_ORDER * b);
+        x -= excess(e, exp(x)) / slope(e, exp(x));
     }
-    return fmin(fmax(exp(x), FAC_MIN), high);
+    return exp(x);
+}
+
+/* fac = h_new / h: the factor for which err_lam fac^p + err_dense fac^4 + err_ode fac^5 =
+   SAFETY, and after an accepted step the proportional-integral correction of Hairer's DOPRI5
+   (Lund stabilisation), (err^0.75 err_previous)^PI_BETA with err the sum of the errors: it
+   damps the alternation of accepted and rejected steps where the step is bounded by
+   stability rather than accuracy (a stiff friction damper). Clipped to [FAC_MIN, FAC_MAX]
+   (to 1 after a rejection). */
+double dep_step_factor(const dep_step_errors *errors, double err_previous, int accepted)
+{
+    double high = accepted ? FAC_MAX : 1.0;
+    double fac = integral_factor(errors, high);
+    if (accepted) {
+        double err = fmax(dep_step_error(errors), PI_FLOOR);
+        fac *= pow(pow(err, 0.75) * fmax(err_previous, PI_FLOOR), PI_BETA);
+    }
+    return fmin(fmax(fac, FAC_MIN), high);
+}
+
+double dep_step_error(const dep_step_errors *errors)
+{
+    return errors->ode + errors->lam + errors->dense;
+}
+
+/* err_dense: the velocity outputs' interpolation error inside the step (the cubic Hermite
+   interpolant of qd and qdd at both ends, docs/method.md 5), h^4 |qd| / 384 with qd
+   from the third divided difference of the accepted accelerations and qdd1, in the weighted
+   norm of the qd components; 0 until three accelerations are known. */
+double dep_dense_error(const dep_acceleration_history *history, double t1, const double *qdd1,
+                       const double *scale_qd, int nq, double *scratch)
+{
+    int n = history->count;
+    if (n < 3) {
+        return 0.0;
+    }
+    const double *points[4] = {history->qdd[n - 3], history->qdd[n - 2], history->qdd[n - 1],
+                               qdd1};
+    double t[4] = {history->t[n - 3], history->t[n - 2], history->t[n - 1], t1};
+    double h = t1 - t[2];
+    for (int j = 0; j < nq; ++j) {
+        double d[4];
+        for (int k = 0; k < 4; ++k) {
+            d[k] = points[k][j];
+        }
+        for (int level = 1; level < 4; ++level) {
+            for (int k = 3; k >= level; --k) {
+                d[k] = (d[k] - d[k - 1]) / (t[k] - t[k - level]);
+            }
+        }
+        scratch[j] = pow(h, 4) * 6.0 * d[3] / 384.0;
+    }
+    return dep_rms(scratch, scale_qd, nq);
+}
+
+int dep_acceleration_history_init(dep_acceleration_history *history, int nq, dep_arena *arena)
+{
+    memset(history, 0, sizeof *history);
+    history->nq = nq;
+    for (int k = 0; k < 3; ++k) {
+        history->qdd[k] = dep_doubles(arena, (size_t)nq);
+    }
+    return arena->failed ? DEP_MEMORY_ERROR : DEP_OK;
+}
+
+void dep_acceleration_history_add(dep_acceleration_history *history, double t,
+                                  const double *qdd, int restart)
+{
+    if (restart) {
+        history->count = 0;
+    }
+    if (history->count == 3) {
+        double *oldest = history->qdd[0];
+        for (int k = 1; k < 3; ++k) {
+            history->t[k - 1] = history->t[k];
+            history->qdd[k - 1] = history->qdd[k];
+        }
+        history->qdd[2] = oldest;
+        history->count--;
+    }
+    history->t[history->count] = t;
+    memcpy(history->qdd[history->count], qdd, (size_t)history->nq * sizeof *qdd);
+    history->count++;
 }
 
 /* The largest fac the position pass's contraction rate rho allows (rho ~ (omega h)^2). */

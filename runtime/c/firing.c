@@ -145,8 +145,11 @@ static int retake(dep_run *run, const dep_event *event, double *t_event, const d
     for (int attempt = 0; attempt <= REFINE_EVENT; ++attempt) {
         double h = *t_event - prior->t, shift;
         dep_failure failure;
-        dep_history_predict(&run->history, *t_event, run->predicted);
-        int status = dep_step(&run->stepper, prior, h, run->predicted, &run->fired, &failure);
+        dep_profile profile;
+        dep_profile_set(&profile, &run->history, h);
+        dep_history_predict(&run->history, &profile, run->predicted);
+        int status = dep_step(&run->stepper, prior, &profile, run->predicted, &run->fired,
+                              &failure);
         if (status == DEP_PASS_FAILED) {
             return dep_run_pass_error(run, &failure, *t_event);
         }
@@ -276,6 +279,7 @@ int dep_run_after_step(dep_run *run, int *stop)
     if (k < 0) {
         dep_state_copy(&run->state, new, run->nq, run->cs.nc, run->nd);
         dep_history_add(&run->history, new->t, new->lam);
+        dep_acceleration_history_add(&run->accelerations, new->t, new->qdd, 0);
         dep_run_observe_loads(run, &run->state);
         return DEP_OK;
     }

@@ -71,6 +71,7 @@ int dep_run_restart(dep_run *run, double t, const double *q, const double *qd,
     }
     dep_tally_observe(&run->tally, &report);
     dep_history_reset(&run->history, t, s->lam, run->cs.nc);
+    dep_acceleration_history_add(&run->accelerations, t, s->qdd, 1);
     return DEP_OK;
 }
 
@@ -90,12 +91,9 @@ int dep_run_record_until(dep_run *run, double t_until, const dep_outcome *end)
                                 &run->cs);
         } else {
             const dep_state *new = &end->state;
-            double s = (t - start->t) / (new->t - start->t);
             dep_interpolate(end->data, start->t, new->t - start->t, nq, t, run->q, run->qd);
             dep_dense_components(end->rk, t, 2 * nq, run->nd, run->work);
-            for (int i = 0; i < run->cs.nc; ++i) {
-                run->lam[i] = start->lam[i] + s * (new->lam[i] - start->lam[i]);
-            }
+            dep_profile_value(&end->profile, new->lam, t, run->cs.nc, run->lam);
             status = dep_record(&run->recorder, t, run->q, run->qd, run->lam, run->work, &run->cs);
         }
         if (status != DEP_OK) {
@@ -111,7 +109,9 @@ static double first_step(dep_run *run)
 {
     const dep_state *s = &run->state;
     int nq = run->nq;
-    dep_stepper_set_rhs(&run->stepper, s->t, 1.0, s->lam, s->lam); /* lambda held */
+    dep_profile held;
+    dep_profile_hold(&held, s->t, s->lam); /* lambda held at lambda_0 */
+    dep_stepper_set_rhs(&run->stepper, &held, s->lam);
     memcpy(run->y, s->q, (size_t)nq * sizeof(double));
     memcpy(run->y + nq, s->qd, (size_t)nq * sizeof(double));
     memcpy(run->y + 2 * nq, s->work, (size_t)run->nd * sizeof(double));
@@ -120,20 +120,60 @@ static double first_step(dep_run *run)
                             run->settings.tol, run->settings.t_end - s->t, run->scratch);
 }
 
-/* (err_ode, err_lam) in tolerance units (1 = at tolerance). */
-static void step_errors(dep_run *run, const dep_outcome *outcome, double h, double *err_ode,
-                        double *err_lam)
+/* The DOPRI error estimate less what the passes remove: its position and velocity parts
+   projected M-orthogonally onto the tangent space of the constraints at the step end,
+   e - M^-1 J^T S^-1 J e (docs/method.md, 4). Into run->tangent. */
+static void tangential_error(dep_run *run, const dep_outcome *outcome)
+{
+    const dep_rk_step *rk = outcome->rk;
+    int nq = run->nq, nc = run->cs.nc;
+    double *Je = run->normal, *mu = Je + nc, *column = mu + nc, *solved = column + nq;
+    memcpy(run->tangent, rk->error, (size_t)run->ny * sizeof *run->tangent);
+    for (int half = 0; half < 2 && nc > 0; ++half) {
+        double *e = run->tangent + (size_t)half * (size_t)nq;
+        for (int i = 0; i < nc; ++i) {
+            double sum = 0.0;
+            for (int j = 0; j < nq; ++j) {
+                sum += outcome->J1[i * nq + j] * e[j];
+            }
+            Je[i] = sum;
+        }
+        if (!dep_schur_solve(&run->stepper.mp, outcome->J1, outcome->J1_id, nc, Je, mu)) {
+            memcpy(run->tangent, rk->error, (size_t)run->ny * sizeof *run->tangent);
+            return; /* a singular S: measure the whole error */
+        }
+        for (int j = 0; j < nq; ++j) {
+            double sum = 0.0;
+            for (int i = 0; i < nc; ++i) {
+                sum += outcome->J1[i * nq + j] * mu[i];
+            }
+            column[j] = sum;
+        }
+        dep_mass_solve(&run->system.mass, column, solved);
+        for (int j = 0; j < nq; ++j) {
+            e[j] -= solved[j];
+        }
+    }
+}
+
+/* The step's errors in tolerance units (1 = at tolerance; controller.c). */
+static void step_errors(dep_run *run, const dep_outcome *outcome, dep_step_errors *e)
 {
     const dep_rk_step *rk = outcome->rk;
     double *scale = run->y, *scratch = run->scratch;
+    int nq = run->nq;
     dep_weights(rk->y0, rk->y1, run->ny, run->settings.tol, scale);
-    *err_ode = dep_rms(rk->error, scale, run->ny);
-    *err_lam = dep_interpolation_error(h, &run->history, outcome->state.lam, outcome->J1,
-                                       &run->system.mass, scale, run->nq, scratch)
-               * sqrt((double)run->nq / run->ny);
-    if (!isfinite(*err_ode + *err_lam)) {
-        *err_ode = INFINITY;
-        *err_lam = 0.0;
+    tangential_error(run, outcome);
+    e->ode = dep_rms(run->tangent, scale, run->ny);
+    e->lam = dep_interpolation_error(&outcome->profile, &run->history, outcome->state.lam,
+                                     outcome->lam_position, outcome->J1, &run->system.mass,
+                                     scale, nq, scratch, &e->lam_order)
+             * sqrt((double)nq / run->ny);
+    e->dense = dep_dense_error(&run->accelerations, outcome->state.t, outcome->state.qdd,
+                               scale + nq, nq, scratch) * sqrt((double)nq / run->ny);
+    if (!isfinite(e->ode + e->lam + e->dense)) {
+        e->ode = INFINITY;
+        e->lam = e->dense = 0.0;
     }
 }
 
@@ -142,13 +182,16 @@ static int advance(dep_run *run, double *h)
 {
     int failures = 0;
     for (;;) {
-        double remaining = run->settings.t_end - run->state.t, err_ode, err_lam;
+        double remaining = run->settings.t_end - run->state.t;
+        dep_step_errors errors;
         dep_failure failure;
+        dep_profile profile;
         *h = fmin(*h, run->h_cap);
         *h = *h >= remaining - run->h_min ? remaining : *h;
-        dep_history_predict(&run->history, run->state.t + *h, run->predicted);
-        int status = dep_step(&run->stepper, &run->state, *h, run->predicted, &run->outcome,
-                              &failure);
+        dep_profile_set(&profile, &run->history, *h);
+        dep_history_predict(&run->history, &profile, run->predicted);
+        int status = dep_step(&run->stepper, &run->state, &profile, run->predicted,
+                              &run->outcome, &failure);
         if (status == DEP_PASS_FAILED) {
             TRACE("step t=%.17g h=%.17g failed %s row %d\n", run->state.t, *h,
                   dep_stage_names[failure.stage], failure.row);
@@ -160,15 +203,17 @@ static int advance(dep_run *run, double *h)
             *h /= 4;
             continue;
         }
-        step_errors(run, &run->outcome, *h, &err_ode, &err_lam);
-        int accepted = err_ode + err_lam <= 1.0;
-        double fac = dep_step_factor(err_lam, err_ode, accepted);
-        TRACE("step t=%.17g h=%.17g ode=%.17g lam=%.17g iterations %d %d %d integrations %d "
-              "%s\n", run->state.t, *h, err_ode, err_lam, run->outcome.reports[0].iterations,
+        step_errors(run, &run->outcome, &errors);
+        int accepted = dep_step_error(&errors) <= 1.0;
+        double fac = dep_step_factor(&errors, run->err_previous, accepted);
+        TRACE("step t=%.17g h=%.17g ode=%.17g lam=%.17g dense=%.17g iterations %d %d %d "
+              "integrations %d %s\n", run->state.t, *h, errors.ode, errors.lam, errors.dense,
+              run->outcome.reports[0].iterations,
               run->outcome.reports[1].iterations, run->outcome.reports[2].iterations,
               run->outcome.integrations, accepted ? "accepted" : "rejected");
         if (accepted) {
             dep_tally_accept(&run->tally, run->outcome.reports, *h);
+            run->err_previous = dep_step_error(&errors);
             run->h_cap = run->h_cap < 1e300 ? run->h_cap * CAP_RELAX : INFINITY;
             *h *= fmin(fac, dep_convergence_factor(&run->outcome.reports[0]));
             return DEP_OK;
@@ -248,6 +293,7 @@ static int setup(dep_run *run, const double *params, const dep_event *events, in
     if (dep_constraints_init(&run->cs, &run->system, arena) != DEP_OK
         || dep_stepper_init(&run->stepper, &run->system, &run->cs, run->settings.tol, arena)
         || dep_history_init(&run->history, run->cs.capacity, arena)
+        || dep_acceleration_history_init(&run->accelerations, m->nq, arena)
         || dep_state_init(&run->state, m->nq, run->cs.capacity, run->nd, arena)
         || dep_outcome_init(&run->outcome, m->nq, run->cs.capacity, run->nd, arena)
         || dep_outcome_init(&run->fired, m->nq, run->cs.capacity, run->nd, arena)
@@ -262,9 +308,12 @@ static int setup(dep_run *run, const double *params, const dep_event *events, in
                                "output times; use a larger dt_out");
     }
     size_t capacity = (size_t)run->cs.capacity, nq = (size_t)m->nq, ny = (size_t)run->ny;
-    run->scratch = dep_doubles(arena, capacity * nq + capacity + 3 * ny + 2 * nq);
+    run->scratch = dep_doubles(arena, capacity * nq + (DEP_HISTORY + 2) * capacity + 3 * ny
+                                      + 2 * nq);
     run->dense_J = dep_doubles(arena, capacity * nq);
     run->dense_lam = dep_doubles(arena, capacity);
+    run->tangent = dep_doubles(arena, ny);
+    run->normal = dep_doubles(arena, 2 * capacity + 2 * nq);
     double **vectors[] = {&run->y, &run->dy, &run->work};
     for (size_t i = 0; i < 3; ++i) {
         *vectors[i] = dep_doubles(arena, ny);
@@ -377,6 +426,7 @@ int dep_simulate(const dep_model *model, const double *params, const dep_setting
     run->error = error;
     run->h_min = 64 * DEP_EPS * fmax(1.0, run->settings.t_end);
     run->h_cap = INFINITY;
+    run->err_previous = 1.0;
     dep_tally_init(&run->tally);
     int status = setup(run, params, events, n_events);
     if (status == DEP_OK) {

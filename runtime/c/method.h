@@ -103,9 +103,9 @@ typedef void (*dep_measure_function)(void *context, const double *lam, dep_measu
 typedef struct dep_multipliers { /* scratch of the iteration and its Schur-complement cache */
     int nq, capacity;
     const dep_mass *mass;
-    long long schur_id;
-    int schur_nc, schur_explicit;
-    double *S, *diag, *MinvJT, *column;
+    long long schur_id, factorizations;
+    int schur_nc, schur_explicit, schur_factored;
+    double *S, *L, *diag, *MinvJT, *column;
     double *x, *r, *z, *d, *Sd, *inv_diag, *step, *trial_lam, *work;
 } dep_multipliers;
 
@@ -117,6 +117,8 @@ int dep_iterate_multipliers(dep_multipliers *mp, int stage, double *lam, int nc,
                             dep_measure_function measure, void *context, double C, double tol,
                             dep_measurement *slots[2], dep_measurement **final,
                             dep_pass_report *report, dep_failure *failure);
+int dep_schur_solve(dep_multipliers *mp, const double *J, long long jacobian_id, int nc,
+                    const double *b, double *x);
 double dep_max_abs(const double *v, int n);
 double dep_product_scale(const double *J, int nc, int nq, const double *x);
 int dep_project_velocity(dep_multipliers *mp, const double *J, long long jacobian_id, int nc,
@@ -126,7 +128,8 @@ int dep_project_velocity(dep_multipliers *mp, const double *J, long long jacobia
 
 /* ---- controller.c: step size control and the multiplier predictor --------------------- */
 
-#define DEP_HISTORY 4
+#define DEP_HISTORY 4         /* accepted multipliers kept: a cubic profile and its error */
+#define DEP_PROFILE_NODES 3   /* at most this many of them shape a step's profile */
 
 typedef struct dep_history {
     int count, nc;
@@ -134,16 +137,57 @@ typedef struct dep_history {
     double *lam[DEP_HISTORY]; /* oldest first; capacity each */
 } dep_history;
 
+/* lambda(t) over a step t0 -> t0 + h: the polynomial through the last `nodes` accepted
+   multipliers (at u_j <= 0 in step units u = (t - t0) / h) and the step's unknown end value
+   at u = 1 (docs/method.md, section 2). `position` and `velocity` are the integrals of the end
+   value's basis polynomial l(u): integral_0^1 (1 - u) l(u) du and integral_0^1 l(u) du, so
+   that d q_{i+1} = -h^2 position M^-1 Phi_q^T d lambda_{i+1} for frozen Phi_q (the C of the
+   iteration (6)) and d qd_{i+1} = -h velocity M^-1 Phi_q^T d lambda_{i+1}. */
+typedef struct dep_profile {
+    double t0, h;
+    int nodes;
+    double u[DEP_PROFILE_NODES];
+    const double *lam[DEP_PROFILE_NODES];
+    double position, velocity;
+    double excursion; /* integral_0^1 (1 - u) |prod_j (u - u_j) (u - 1)| du */
+} dep_profile;
+
 int dep_history_init(dep_history *history, int capacity, dep_arena *arena);
 void dep_history_reset(dep_history *history, double t, const double *lam, int nc);
 void dep_history_add(dep_history *history, double t, const double *lam);
-void dep_history_predict(const dep_history *history, double t, double *out);
+void dep_profile_set(dep_profile *profile, const dep_history *history, double h);
+void dep_profile_hold(dep_profile *profile, double t0, const double *lam);
+void dep_profile_value(const dep_profile *profile, const double *lam_end, double t, int nc,
+                       double *out);
+void dep_history_predict(const dep_history *history, const dep_profile *profile, double *out);
 void dep_weights(const double *y0, const double *y1, int n, double tol, double *scale);
 double dep_rms(const double *x, const double *scale, int n);
-double dep_interpolation_error(double h, const dep_history *history, const double *lam1,
+double dep_interpolation_error(const dep_profile *profile, const dep_history *history,
+                               const double *lam1, const double *lam_position,
                                const double *J1, const dep_mass *mass, const double *scale_q,
-                               int nq, double *scratch);
-double dep_step_factor(double err_lam, double err_ode, int accepted);
+                               int nq, double *scratch, int *order);
+/* A step's errors in tolerance units (1: at tolerance), controller.c. */
+typedef struct dep_step_errors {
+    double ode;       /* the ODE method's (DOPRI 5(4)), tangential part */
+    double lam;       /* the multipliers' interpolation */
+    int lam_order;    /* its power of h */
+    double dense;     /* the velocity outputs' interpolation (power 4) */
+} dep_step_errors;
+
+/* The last three accepted accelerations (for err_dense). */
+typedef struct dep_acceleration_history {
+    int count, nq;
+    double t[3];
+    double *qdd[3];
+} dep_acceleration_history;
+
+double dep_step_error(const dep_step_errors *errors);
+double dep_step_factor(const dep_step_errors *errors, double err_previous, int accepted);
+double dep_dense_error(const dep_acceleration_history *history, double t1, const double *qdd1,
+                       const double *scale_qd, int nq, double *scratch);
+int dep_acceleration_history_init(dep_acceleration_history *history, int nq, dep_arena *arena);
+void dep_acceleration_history_add(dep_acceleration_history *history, double t,
+                                  const double *qdd, int restart);
 double dep_convergence_factor(const dep_pass_report *report);
 double dep_initial_step(dep_rhs_function rhs, void *context, double t0, const double *y0,
                         const double *f0, int n, double tol, double span, double *scratch);
@@ -174,9 +218,12 @@ typedef struct dep_outcome {
     dep_state state;
     const dep_rk_step *rk;   /* the trajectory (valid until the next step) */
     const double *J1;        /* Phi_q at the new state */
+    long long J1_id;         /* its identity (the Schur cache key) */
+    const double *lam_position; /* lambda_{i+1} as the position pass left it */
     double *data;            /* 10 x nq: the step interpolant (dep_interpolant_data) */
     dep_pass_report reports[3];
     int integrations;
+    dep_profile profile;     /* the step's lambda(t) (its history part; the end is the state's) */
 } dep_outcome;
 
 typedef struct dep_stepper {
@@ -189,12 +236,14 @@ typedef struct dep_stepper {
     dep_measurement slots[6], *final_position;
     /* the step being taken */
     const dep_state *start;
-    double h, t1, rhs_t0;
-    double *y0, *k1, *slope, *lam0, *rhs_lam, *force, *jt_lam, *scratch;
-    double *memo_lam;
+    double h, t1;
+    dep_profile profile;  /* lambda(t) over the step */
+    const double *rhs_end;  /* its end value for the next rhs calls */
+    double *y0, *k1, *rhs_lam, *force, *jt_lam, *scratch;
+    dep_rk_step base;       /* the step's last integration, for lambda_{i+1} = base_lam */
+    double *base_lam, *base_J; /* nc; nc x nq: Phi_q at its end */
     double *q1, *phi_t1, *lam_pos;
-    const dep_rk_step *memo_rk;
-    int memo_valid, integrations_this_step;
+    int base_valid, integrations_this_step;
     double *restart_J;
     dep_acceleration_work accel;
 } dep_stepper;
@@ -207,14 +256,14 @@ void dep_state_copy(dep_state *to, const dep_state *from, int nq, int nc, int nd
 int dep_outcome_init(dep_outcome *outcome, int nq, int capacity, int nd, dep_arena *arena);
 void dep_stepper_derivative(dep_stepper *stepper, const dep_state *state, double *dy);
 void dep_stepper_rhs(void *context, double t, const double *y, double *dy);
-void dep_stepper_set_rhs(dep_stepper *stepper, double t0, double h, const double *lam0,
-                         const double *lam1);
+void dep_stepper_set_rhs(dep_stepper *stepper, const dep_profile *profile,
+                         const double *lam_end);
 int dep_acceleration(dep_stepper *stepper, const double *q, const double *qd, double t,
                      double *lam, const double *J, long long jacobian_id, double *qdd,
                      dep_pass_report *report, dep_failure *failure);
 
 
-int dep_step(dep_stepper *stepper, const dep_state *state, double h, const double *lam_predicted,
-             dep_outcome *outcome, dep_failure *failure);
+int dep_step(dep_stepper *stepper, const dep_state *state, const dep_profile *profile,
+             const double *lam_predicted, dep_outcome *outcome, dep_failure *failure);
 
 #endif /* DEPSIM_METHOD_H */

@@ -2,10 +2,14 @@
  *
  *     lambda^m = lambda^{m-1} - alpha * A v^{m-1} / C
  *
- * v is one level's constraint error, C that level's sensitivity to lambda_{i+1} (h^2/6, h/2,
- * 1), A ~ S^-1 with S = Phi_q M^-1 Phi_q^T applied by Jacobi-preconditioned conjugate
- * gradients (products with Phi_q, M^-1, Phi_q^T only; nothing is factorised). The step is
- * halved while a trial does not reduce max|v| (docs/method.md, 2).
+ * v is one level's constraint error, C that level's sensitivity to lambda_{i+1}, A ~ S^-1
+ * with S = Phi_q M^-1 Phi_q^T. For fewer than EXPLICIT_BELOW rows S is formed once per
+ * Jacobian and A applied by its Cholesky factor (a small matrix, factorised once per Jacobian
+ * and reused by every pass and trial that sees it); otherwise, or when S is singular (a dead
+ * point, redundant rows), by Jacobi-preconditioned conjugate gradients (products with Phi_q,
+ * M^-1, Phi_q^T only). The constraint system itself is never solved: A only preconditions
+ * the iteration, which measures the error and corrects. The step is halved while a trial
+ * does not reduce max|v| (docs/method.md, 2).
  */
 #include <math.h>
 #include <stdio.h>
@@ -28,6 +32,7 @@ int dep_multipliers_init(dep_multipliers *mp, const dep_mass *mass, int nq, int 
     mp->mass = mass;
     mp->schur_id = -1;
     mp->S = dep_doubles(arena, nc * nc);
+    mp->L = dep_doubles(arena, nc * nc);
     mp->MinvJT = dep_doubles(arena, nc * (size_t)nq);
     mp->column = dep_doubles(arena, (size_t)nq);
     mp->work = dep_doubles(arena, (size_t)nq);
@@ -95,6 +100,53 @@ static double dot(const double *a, const double *b, int n)
 
 /* ---- S = J M^-1 J^T (Schur) ------------------------------------------------------------ */
 
+/* The Cholesky factor of the explicit S (lower, in mp->L); 0 when S is not positive definite
+   to working precision (conjugate gradients then handle a consistent singular system). */
+static int factor_schur(dep_multipliers *mp, int nc)
+{
+    const double *S = mp->S;
+    double *L = mp->L, largest = 0.0;
+    for (int a = 0; a < nc; ++a) {
+        largest = fmax(largest, S[a * nc + a]);
+    }
+    for (int j = 0; j < nc; ++j) {
+        for (int i = j; i < nc; ++i) {
+            double sum = S[i * nc + j];
+            for (int k = 0; k < j; ++k) {
+                sum -= L[i * nc + k] * L[j * nc + k];
+            }
+            if (i == j) {
+                if (!(sum > 1e-12 * largest)) {
+                    return 0;
+                }
+                L[j * nc + j] = sqrt(sum);
+            } else {
+                L[i * nc + j] = sum / L[j * nc + j];
+            }
+        }
+    }
+    mp->factorizations++;
+    return 1;
+}
+
+static void cholesky_solve(const double *L, int n, const double *b, double *x)
+{
+    for (int i = 0; i < n; ++i) { /* L y = b */
+        double sum = b[i];
+        for (int k = 0; k < i; ++k) {
+            sum -= L[i * n + k] * x[k];
+        }
+        x[i] = sum / L[i * n + i];
+    }
+    for (int i = n - 1; i >= 0; --i) { /* L^T x = y */
+        double sum = x[i];
+        for (int k = i + 1; k < n; ++k) {
+            sum -= L[k * n + i] * x[k];
+        }
+        x[i] = sum / L[i * n + i];
+    }
+}
+
 static void schur_for(dep_multipliers *mp, const double *J, long long id, int nc)
 {
     int nq = mp->nq;
@@ -118,6 +170,33 @@ static void schur_for(dep_multipliers *mp, const double *J, long long id, int nc
             mp->diag[a] = dot(Ja, mp->MinvJT + (size_t)a * (size_t)nq, nq);
         }
     }
+    mp->schur_factored = mp->schur_explicit && factor_schur(mp, nc);
+}
+
+static int pcg(dep_multipliers *mp, const double *J, int n, const double *b,
+               long long *iterations);
+
+/* x = S^-1 b (into mp->x): by the factor when there is one, else conjugate gradients;
+   1 when solved. */
+static int solve_schur(dep_multipliers *mp, const double *J, int n, const double *b,
+                       long long *iterations)
+{
+    if (mp->schur_factored) {
+        cholesky_solve(mp->L, n, b, mp->x);
+        return 1;
+    }
+    return pcg(mp, J, n, b, iterations);
+}
+
+/* x = S^-1 b for the rows J (nc x nq) with identity jacobian_id; 1 when solved. */
+int dep_schur_solve(dep_multipliers *mp, const double *J, long long jacobian_id, int nc,
+                    const double *b, double *x)
+{
+    long long iterations = 0;
+    schur_for(mp, J, jacobian_id, nc);
+    int solved = solve_schur(mp, J, nc, b, &iterations);
+    memcpy(x, mp->x, (size_t)nc * sizeof *x);
+    return solved;
 }
 
 static void schur_apply(dep_multipliers *mp, const double *J, int nc, const double *x,
@@ -238,7 +317,7 @@ int dep_iterate_multipliers(dep_multipliers *mp, int stage, double *lam, int nc,
             return fail(stage, current, nc, reason, failure);
         }
         schur_for(mp, current->J, current->jacobian_id, nc);
-        if (!pcg(mp, current->J, nc, current->v, &report->cg_iterations)) {
+        if (!solve_schur(mp, current->J, nc, current->v, &report->cg_iterations)) {
             return fail(stage, current, nc, "the multiplier system S = Phi_q M^-1 Phi_q^T is "
                         "singular or inconsistent here (conjugate gradients did not converge)",
                         failure);

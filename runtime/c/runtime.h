@@ -30,6 +30,7 @@ typedef struct dep_run {
     int n_user_events;
     dep_tally tally;
     dep_history history;
+    dep_acceleration_history accelerations;
     dep_loads loads;
     dep_state state;
     dep_outcome outcome, fired;
@@ -40,6 +41,8 @@ typedef struct dep_run {
     int nq, nd, ny;
     double *p, *scratch, *y, *dy, *q, *qd, *lam, *work, *predicted, *mass_qd;
     double *dense_J, *dense_lam;
+    double *tangent, *normal; /* ny, 2 capacity + 2 nq: the step error's tangential part */
+    double err_previous;      /* the last accepted step's error (the PI step control) */
     dep_active_rows state_rows, dense_rows;
     dep_event_record *records;
     int n_records, records_capacity;

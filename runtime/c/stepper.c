@@ -1,9 +1,11 @@
-/* stepper.c: one step of the paper's method, lambda(t) linear over the step and three passes
- * of the iteration (6) (docs/method.md, 2):
+/* stepper.c: one step of the paper's method, lambda(t) prescribed over the step by its profile
+ * (controller.c: the polynomial through the last accepted multipliers and the unknown end
+ * value lambda_{i+1}) and three passes of the iteration (6) (docs/method.md, 2):
  *
- *   1. position:     re-integrate (DOPRI 5(4)) until v_pos(q_{i+1}) is small, C = h^2/6
- *   2. velocity:     apply the frozen-Phi_q effect -(h/2) M^-1 Phi_q^T d(lambda) on qd_{i+1}
- *                    until v_vel is small, C = h/2
+ *   1. position:     re-integrate (DOPRI 5(4)) until v_pos(q_{i+1}) is small,
+ *                    C = h^2 integral (1 - u) l(u) du (h^2/6 for a linear profile)
+ *   2. velocity:     apply the frozen-Phi_q effect -h integral l(u) du M^-1 Phi_q^T d(lambda)
+ *                    on qd_{i+1} until v_vel is small
  *   3. acceleration: qdd_{i+1} and lambda_{i+1} from (1) and (2c), C = 1
  *
  * y = (q, qd, work): the dissipated work rides along as quadrature states.
@@ -14,6 +16,7 @@
 #include "runtime.h"
 
 #define CONSTRAINT_FRACTION 0.01
+#define LINEAR_LIMIT 0.1 /* tolerances: larger position-pass moves integrate the step again */
 #define ROUNDOFF (16 * DEP_EPS)
 
 /* The passes' iteration tolerance for an integration tolerance tol (constraint_tolerance). */
@@ -75,12 +78,16 @@ int dep_stepper_init(dep_stepper *stepper, const dep_system *system, dep_constra
     for (size_t i = 0; i < sizeof vectors / sizeof *vectors; ++i) {
         *vectors[i] = dep_doubles(arena, (size_t)ny);
     }
-    double **rows[] = {&stepper->slope, &stepper->lam0, &stepper->rhs_lam, &stepper->memo_lam,
-                       &stepper->phi_t1, &stepper->lam_pos};
+    double **rows[] = {&stepper->rhs_lam, &stepper->base_lam, &stepper->phi_t1,
+                       &stepper->lam_pos};
     for (size_t i = 0; i < sizeof rows / sizeof *rows; ++i) {
         *rows[i] = dep_doubles(arena, (size_t)capacity);
     }
     stepper->force = dep_doubles(arena, (size_t)nq);
+    stepper->base_J = dep_doubles(arena, (size_t)capacity * (size_t)nq);
+    if (dep_rk_init(&stepper->base, ny, arena) != DEP_OK) {
+        return DEP_MEMORY_ERROR;
+    }
     stepper->accel.system = system;
     stepper->accel.cs = cs;
     stepper->accel.mp = &stepper->mp;
@@ -98,16 +105,15 @@ int dep_stepper_init(dep_stepper *stepper, const dep_system *system, dep_constra
 
 /* ---- the motion (1) with lambda(t) given -------------------------------------------------- */
 
-/* lambda(t) = lam0 + (t - t0) (lam1 - lam0) / h for the next rhs calls. */
-void dep_stepper_set_rhs(dep_stepper *stepper, double t0, double h, const double *lam0,
-                         const double *lam1)
+/* lambda(t) by `profile` with end value lam_end for the next rhs calls (both kept by
+   reference). */
+void dep_stepper_set_rhs(dep_stepper *stepper, const dep_profile *profile,
+                         const double *lam_end)
 {
-    int nc = stepper->constraints->nc;
-    stepper->rhs_t0 = t0;
-    for (int i = 0; i < nc; ++i) {
-        stepper->lam0[i] = lam0[i];
-        stepper->slope[i] = (lam1[i] - lam0[i]) / h;
+    if (&stepper->profile != profile) {
+        stepper->profile = *profile;
     }
+    stepper->rhs_end = lam_end;
 }
 
 static void solve_motion(dep_stepper *stepper, const double *q, const double *qd, double t,
@@ -136,9 +142,7 @@ void dep_stepper_rhs(void *context, double t, const double *y, double *dy)
     int nq = stepper->nq;
     const double *q = y, *qd = y + nq;
     stepper->rhs_evaluations++;
-    for (int i = 0; i < cs->nc; ++i) {
-        stepper->rhs_lam[i] = stepper->lam0[i] + (t - stepper->rhs_t0) * stepper->slope[i];
-    }
+    dep_profile_value(&stepper->profile, stepper->rhs_end, t, cs->nc, stepper->rhs_lam);
     dep_cs_jacobian_transpose_times(cs, q, t, stepper->rhs_lam, stepper->jt_lam);
     memcpy(dy, qd, (size_t)nq * sizeof *dy);
     solve_motion(stepper, q, qd, t, stepper->jt_lam, dy + nq);
@@ -178,52 +182,90 @@ int dep_acceleration(dep_stepper *stepper, const double *q, const double *qd, do
 
 /* ---- one step ---------------------------------------------------------------------------- */
 
-/* The trajectory for a trial lambda_{i+1}: one DOPRI step into the slot, unless the same
-   lambda was integrated last. */
-static void integrate(dep_stepper *stepper, const double *lam1, dep_measurement *out)
+/* One DOPRI step with lambda_{i+1} = lam1 into the stepper's base, and Phi_q at its end. */
+static void integrate(dep_stepper *stepper, const double *lam1)
 {
     int nc = stepper->constraints->nc;
     const dep_state *s = stepper->start;
-    if (stepper->memo_valid && memcmp(lam1, stepper->memo_lam, (size_t)nc * sizeof *lam1) == 0) {
-        if (stepper->memo_rk != &out->rk) {
-            const dep_rk_step *memo = stepper->memo_rk;
-            size_t ny = (size_t)stepper->ny;
-            out->rk.t0 = memo->t0;
-            out->rk.h = memo->h;
-            out->rk.y0 = memo->y0;
-            memcpy(out->rk.y1, memo->y1, ny * sizeof(double));
-            memcpy(out->rk.error, memo->error, ny * sizeof(double));
-            memcpy(out->rk.K, memo->K, 7 * ny * sizeof(double));
-        }
-    } else {
-        stepper->integrations_this_step++;
-        stepper->integrations++;
-        dep_stepper_set_rhs(stepper, s->t, stepper->h, s->lam, lam1);
-        dep_dopri_step(&out->rk, dep_stepper_rhs, stepper, s->t, stepper->y0, stepper->k1,
-                       stepper->h, stepper->scratch);
-        memcpy(stepper->memo_lam, lam1, (size_t)nc * sizeof *lam1);
-    }
-    stepper->memo_valid = 1;
-    stepper->memo_rk = &out->rk;
+    stepper->integrations_this_step++;
+    stepper->integrations++;
+    dep_stepper_set_rhs(stepper, &stepper->profile, lam1);
+    dep_dopri_step(&stepper->base, dep_stepper_rhs, stepper, s->t, stepper->y0, stepper->k1,
+                   stepper->h, stepper->scratch);
+    memcpy(stepper->base_lam, lam1, (size_t)nc * sizeof *lam1);
+    dep_cs_jacobian(stepper->constraints, stepper->base.y1, stepper->t1, stepper->base_J);
+    stepper->base_valid = 1;
 }
 
+static void copy_base(const dep_stepper *stepper, dep_rk_step *to)
+{
+    size_t ny = (size_t)stepper->ny;
+    to->t0 = stepper->base.t0;
+    to->h = stepper->base.h;
+    to->y0 = stepper->base.y0;
+    memcpy(to->y1, stepper->base.y1, ny * sizeof(double));
+    memcpy(to->error, stepper->base.error, ny * sizeof(double));
+    memcpy(to->K, stepper->base.K, 7 * ny * sizeof(double));
+}
+
+/* The base trajectory's end moved to lambda_{i+1} = lam1 by the frozen-Phi_q effect of the
+   change d = lam1 - base_lam: q by -h^2 position M^-1 Phi_q^T d, qd by -h velocity
+   M^-1 Phi_q^T d; 0 (nothing done) when those moves exceed LINEAR_LIMIT tolerances, where the
+   part of the true response the linearisation misses (tangential, a fraction of the move)
+   could cost accuracy: the step is integrated again instead. */
+static int correct_base(dep_stepper *stepper, const double *lam1, dep_rk_step *out)
+{
+    int nq = stepper->nq, nc = stepper->constraints->nc;
+    double h = stepper->h, sum = 0.0;
+    for (int i = 0; i < nc; ++i) {
+        stepper->rhs_lam[i] = lam1[i] - stepper->base_lam[i];
+    }
+    transpose_times(stepper->base_J, nc, nq, stepper->rhs_lam, stepper->jt_lam);
+    dep_mass_solve(&stepper->system->mass, stepper->jt_lam, stepper->force);
+    for (int j = 0; j < nq; ++j) { /* the moves of q and qd in tolerance units */
+        double move = h * h * stepper->profile.position * stepper->force[j];
+        double rate = h * stepper->profile.velocity * stepper->force[j];
+        double scale = stepper->tol * (1.0 + fabs(stepper->base.y1[j]));
+        double rate_scale = stepper->tol * (1.0 + fabs(stepper->base.y1[nq + j]));
+        sum += (move / scale) * (move / scale) + (rate / rate_scale) * (rate / rate_scale);
+    }
+    if (!(sqrt(sum / (2 * nq)) <= LINEAR_LIMIT)) {
+        return 0;
+    }
+    copy_base(stepper, out);
+    for (int j = 0; j < nq; ++j) {
+        out->y1[j] -= h * h * stepper->profile.position * stepper->force[j];
+        out->y1[nq + j] -= h * stepper->profile.velocity * stepper->force[j];
+    }
+    return 1;
+}
+
+/* The position pass's measurement for a trial lambda_{i+1}: the step's end by correcting the
+   last integration when the change is small, else by integrating again. */
 static void measure_position(void *context, const double *lam1, dep_measurement *out)
 {
     dep_stepper *stepper = context;
     dep_constraints *cs = stepper->constraints;
-    integrate(stepper, lam1, out);
     const double *q1 = out->rk.y1;
+    if (stepper->base_valid && correct_base(stepper, lam1, &out->rk)) {
+        dep_cs_jacobian(cs, q1, stepper->t1, out->J_own);
+    } else {
+        integrate(stepper, lam1);
+        copy_base(stepper, &out->rk);
+        memcpy(out->J_own, stepper->base_J,
+               (size_t)cs->nc * (size_t)stepper->nq * sizeof *out->J_own);
+    }
     dep_cs_phi(cs, q1, stepper->t1, out->v);
     for (int i = 0; i < cs->nc; ++i) {
         out->v[i] = -out->v[i];
     }
-    dep_cs_jacobian(cs, q1, stepper->t1, out->J_own);
     out->J = out->J_own;
     out->jacobian_id = ++stepper->jacobian_ids;
     out->scale = dep_max_abs(q1, stepper->nq);
 }
 
-/* qd_{i+1} = qd of the position pass's trajectory - (h/2) M^-1 J1^T (lambda - lambda_pos). */
+/* qd_{i+1} = qd of the position pass's trajectory
+              - h velocity M^-1 J1^T (lambda - lambda_pos). */
 static void measure_velocity(void *context, const double *lam1, dep_measurement *out)
 {
     dep_stepper *stepper = context;
@@ -235,7 +277,7 @@ static void measure_velocity(void *context, const double *lam1, dep_measurement 
     transpose_times(pos->J, nc, nq, stepper->rhs_lam, stepper->jt_lam);
     dep_mass_solve(&stepper->system->mass, stepper->jt_lam, stepper->force);
     for (int j = 0; j < nq; ++j) {
-        out->x[j] = pos->rk.y1[nq + j] - (stepper->h / 2) * stepper->force[j];
+        out->x[j] = pos->rk.y1[nq + j] - stepper->h * stepper->profile.velocity * stepper->force[j];
     }
     for (int i = 0; i < nc; ++i) {
         double sum = 0.0;
@@ -260,22 +302,27 @@ static void finish_step(dep_stepper *stepper, const dep_state *state, dep_outcom
                          new->qdd, nq, outcome->data);
     outcome->rk = rk;
     outcome->J1 = stepper->final_position->J;
+    outcome->J1_id = stepper->final_position->jacobian_id;
+    outcome->lam_position = stepper->lam_pos;
     outcome->integrations = stepper->integrations_this_step;
 }
 
-/* Advance `state` by h (s) from the predicted lambda_{i+1}; DEP_PASS_FAILED when a pass
-   does not converge. The outcome is valid until the next step. */
-int dep_step(dep_stepper *stepper, const dep_state *state, double h, const double *lam_predicted,
-             dep_outcome *outcome, dep_failure *failure)
+/* Advance `state` by the profile's h (s) from the predicted lambda_{i+1}; DEP_PASS_FAILED
+   when a pass does not converge. The outcome is valid until the next step. */
+int dep_step(dep_stepper *stepper, const dep_state *state, const dep_profile *profile,
+             const double *lam_predicted, dep_outcome *outcome, dep_failure *failure)
 {
+    double h = profile->h;
     dep_constraints *cs = stepper->constraints;
     int nq = stepper->nq, nc = cs->nc, nd = stepper->system->nd, status;
     dep_state *new = &outcome->state;
     dep_measurement *final = NULL;
     stepper->start = state;
     stepper->h = h;
+    stepper->profile = *profile;
+    outcome->profile = *profile;
     stepper->t1 = state->t + h;
-    stepper->memo_valid = 0;
+    stepper->base_valid = 0;
     stepper->integrations_this_step = 0;
     memcpy(stepper->y0, state->q, (size_t)nq * sizeof(double));
     memcpy(stepper->y0 + nq, state->qd, (size_t)nq * sizeof(double));
@@ -285,7 +332,8 @@ int dep_step(dep_stepper *stepper, const dep_state *state, double h, const doubl
 
     dep_measurement *position[2] = {&stepper->slots[0], &stepper->slots[1]};
     status = dep_iterate_multipliers(&stepper->mp, DEP_POSITION, new->lam, nc, measure_position,
-                                     stepper, h * h / 6.0, stepper->constraint_tol, position,
+                                     stepper, h * h * profile->position,
+                                     stepper->constraint_tol, position,
                                      &stepper->final_position, &outcome->reports[0], failure);
     if (status != DEP_OK) {
         return status;
@@ -296,7 +344,8 @@ int dep_step(dep_stepper *stepper, const dep_state *state, double h, const doubl
 
     dep_measurement *velocity[2] = {&stepper->slots[2], &stepper->slots[3]};
     status = dep_iterate_multipliers(&stepper->mp, DEP_VELOCITY, new->lam, nc, measure_velocity,
-                                     stepper, h / 2.0, stepper->constraint_tol, velocity, &final,
+                                     stepper, h * profile->velocity, stepper->constraint_tol,
+                                     velocity, &final,
                                      &outcome->reports[1], failure);
     if (status != DEP_OK) {
         return status;

@@ -66,7 +66,10 @@ static int iteration(double h)
         return 1;
     }
     double *zero = calloc((size_t)x.cs.capacity, sizeof *zero);
-    if (zero == NULL || dep_step(&x.stepper, &x.state, h, zero, &x.outcome, &failure) != DEP_OK) {
+    dep_profile profile;
+    dep_profile_set(&profile, &x.history, h);
+    if (zero == NULL
+        || dep_step(&x.stepper, &x.state, &profile, zero, &x.outcome, &failure) != DEP_OK) {
         return fail("step");
     }
     for (int k = 0; k < 3; ++k) {
@@ -96,8 +99,11 @@ static int fixed(int n, double t_end)
         return fail("memory");
     }
     for (int k = 0; k < n; ++k) {
-        dep_history_predict(&x.history, x.state.t + h, predicted);
-        if (dep_step(&x.stepper, &x.state, h, predicted, &x.outcome, &failure) != DEP_OK) {
+        dep_profile profile;
+        dep_profile_set(&profile, &x.history, h);
+        dep_history_predict(&x.history, &profile, predicted);
+        if (dep_step(&x.stepper, &x.state, &profile, predicted, &x.outcome, &failure)
+            != DEP_OK) {
             return fail("step");
         }
         dep_state_copy(&x.state, &x.outcome.state, nq, x.cs.nc, x.system.nd);

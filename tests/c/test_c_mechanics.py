@@ -61,35 +61,83 @@ def close(a, b, rtol=1e-9, atol=1e-12) -> bool:
     return a == b
 
 
+ARRAYS = ("outputs", "q", "energy", "dissipated", "hinge_torque", "lam")
+RELATIVE = 1e-8
+
+
+def differences(a, b) -> dict[str, float]:
+    """Each array's largest difference over its scale (at least 1), and the events'
+    largest time difference (s)."""
+    found = {}
+    for name in ARRAYS:
+        x, y = getattr(a, name), getattr(b, name)
+        scale = max(1.0, float(np.nanmax(np.abs(x), initial=0.0)))
+        found[name] = float(np.nanmax(np.abs(x - y), initial=0.0)) / scale
+    found["event times"] = max((abs(e.t - f.t) for e, f in zip(a.events, b.events)),
+                               default=0.0)
+    return found
+
+
+@pytest.fixture(scope="module")
+def bounds(runs):
+    """case -> the allowed difference of each quantity between the two targets: RELATIVE,
+    or ten times how far one ulp in the first parameter moves the C run where that is more
+    (a latching INTELSAT V is sensitive to round-off: no two evaluations of its model
+    functions may differ in a last bit for tighter agreement to be physical)."""
+    cache = {}
+
+    def get(case):
+        if case not in cache:
+            _, c_module, p, _, got = runs(case)
+            moved_p = p.copy()
+            moved_p[0] = np.nextafter(moved_p[0], np.inf)
+            moved = simulate(c_module, moved_p, t_end=CASES[case][2])
+            cache[case] = {k: max(RELATIVE, 10 * v)
+                           for k, v in differences(got, moved).items()}
+        return cache[case]
+
+    return get
+
+
 @pytest.mark.parametrize("case", list(CASES))
-def test_same_steps_and_events(runs, case):
+def test_same_events(runs, bounds, case):
+    *_, expected, got = runs(case)
+    assert [e.name for e in got.events] == [e.name for e in expected.events]
+    assert expected.events, "the case should exercise the mechanism"
+    allowed = bounds(case)["event times"]
+    for a, b in zip(expected.events, got.events):
+        assert abs(a.t - b.t) <= allowed * max(1.0, a.t), a.name
+        assert close(a.data, b.data, rtol=max(1e-9, allowed)), (a.name, a.data, b.data)
+
+
+@pytest.mark.parametrize("case", ["pendulum_stops", "compliant_latch", "pendulum_at_stop"])
+def test_same_steps(runs, case):
+    """Models without round-off sensitivity take the very same steps on both targets."""
     *_, expected, got = runs(case)
     for field in ("accepted_steps", "rejected_steps", "failed_steps", "events"):
         assert getattr(got.stats, field) == getattr(expected.stats, field), field
-    assert [e.name for e in got.events] == [e.name for e in expected.events]
-    assert expected.events, "the case should exercise the mechanism"
-    for a, b in zip(expected.events, got.events):
-        assert abs(a.t - b.t) <= 1e-9 * max(1.0, a.t), a.name
-        assert close(a.data, b.data), (a.name, a.data, b.data)
 
 
 @pytest.mark.parametrize("case", list(CASES))
-def test_same_results(runs, case):
+def test_same_results(runs, bounds, case):
     *_, expected, got = runs(case)
     assert got.constraint_names == expected.constraint_names
     assert got.energy_names == expected.energy_names
     assert got.dissipator_names == expected.dissipator_names
     assert got.latch_hinges == expected.latch_hinges
-    for name in ("outputs", "q", "energy", "dissipated", "hinge_torque", "lam"):
-        a, b = getattr(expected, name), getattr(got, name)
-        np.testing.assert_array_equal(np.isnan(a), np.isnan(b), err_msg=name)
-        scale = max(1.0, float(np.nanmax(np.abs(a), initial=0.0)))
-        assert np.nanmax(np.abs(a - b), initial=0.0) <= 1e-8 * scale, name
-    np.testing.assert_allclose(got.total_energy(), expected.total_energy(), rtol=0, atol=1e-8)
+    allowed = bounds(case)
+    found = differences(expected, got)
+    for name in ARRAYS:
+        np.testing.assert_array_equal(np.isnan(getattr(expected, name)),
+                                      np.isnan(getattr(got, name)), err_msg=name)
+        assert found[name] <= allowed[name], (name, found[name], allowed[name])
+    scale = max(allowed.values())
+    np.testing.assert_allclose(got.total_energy(), expected.total_energy(), rtol=0,
+                               atol=max(1e-8, scale))
     for hinge, peak in expected.peak_loads.items():
         other = got.peak_loads[hinge]
-        assert abs(other.force - peak.force) <= 1e-8 * max(1.0, peak.force), hinge
-        assert abs(other.torque - peak.torque) <= 1e-8 * max(1.0, peak.torque), hinge
+        assert abs(other.force - peak.force) <= scale * max(1.0, peak.force), hinge
+        assert abs(other.torque - peak.torque) <= scale * max(1.0, peak.torque), hinge
 
 
 def test_deployment_summary_agrees(runs):

