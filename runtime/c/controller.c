@@ -5,7 +5,8 @@
  * step's unknown end value (up to a cubic). The new step h_new = fac h combines the error of
  * that interpolation (~h^(nodes + 3)) with the ODE method's own error (~h^5), both in the
  * weighted RMS norm (1: at tolerance); a step is accepted when err_lam + err_ode <= 1 and fac
- * solves err_lam fac^p + err_ode fac^5 = SAFETY, clipped to [FAC_MIN, FAC_MAX].
+ * solves err_lam fac^p + err_ode fac^5 = SAFETY, times a proportional-integral factor,
+ * clipped to [FAC_MIN, FAC_MAX].
  */
 #include <math.h>
 #include <string.h>
@@ -17,7 +18,6 @@
 #define FAC_MAX 5.0
 #define ERROR_ORDER 5
 #define PI_BETA 0.08
-#define DENSE_ORDER 4
 #define PI_FLOOR 1e-4
 #define RHO_TARGET 0.2 /* wanted contraction rate of the position pass */
 
@@ -255,18 +255,16 @@ double dep_interpolation_error(const dep_profile *profile, const dep_history *hi
                            scale_q, column);
 }
 
-/* The step errors and their powers of h: the ODE method's, the multipliers' interpolation
-   and the velocity outputs' interpolation (dep_step_errors). */
+/* The step errors and their powers of h: the ODE method's and the multipliers'
+   interpolation (dep_step_errors). */
 static double excess(const dep_step_errors *e, double fac)
 {
-    return e->lam * pow(fac, e->lam_order) + e->dense * pow(fac, DENSE_ORDER)
-           + e->ode * pow(fac, ERROR_ORDER) - SAFETY;
+    return e->lam * pow(fac, e->lam_order) + e->ode * pow(fac, ERROR_ORDER) - SAFETY;
 }
 
 static double slope(const dep_step_errors *e, double fac)
 {
     return e->lam_order * e->lam * pow(fac, e->lam_order)
-           + DENSE_ORDER * e->dense * pow(fac, DENSE_ORDER)
            + ERROR_ORDER * e->ode * pow(fac, ERROR_ORDER);
 }
 
@@ -283,9 +281,6 @@ static double integral_factor(const dep_step_errors *e, double high)
     if (e->lam > 0.0) {
         start = fmin(start, pow(SAFETY / e->lam, 1.0 / e->lam_order));
     }
-    if (e->dense > 0.0) {
-        start = fmin(start, pow(SAFETY / e->dense, 1.0 / DENSE_ORDER));
-    }
     if (e->ode > 0.0) {
         start = fmin(start, pow(SAFETY / e->ode, 1.0 / ERROR_ORDER));
     }
@@ -296,8 +291,7 @@ static double integral_factor(const dep_step_errors *e, double high)
     return exp(x);
 }
 
-/* fac = h_new / h: the factor for which err_lam fac^p + err_dense fac^4 + err_ode fac^5 =
-   SAFETY, and after an accepted step the proportional-integral correction of Hairer's DOPRI5
+/* fac = h_new / h: the factor for which err_lam fac^p + err_ode fac^5 = SAFETY, and after an accepted step the proportional-integral correction of Hairer's DOPRI5
    (Lund stabilisation), (err^0.75 err_previous)^PI_BETA with err the sum of the errors: it
    damps the alternation of accepted and rejected steps where the step is bounded by
    stability rather than accuracy (a stiff friction damper). Clipped to [FAC_MIN, FAC_MAX]
@@ -315,67 +309,7 @@ double dep_step_factor(const dep_step_errors *errors, double err_previous, int a
 
 double dep_step_error(const dep_step_errors *errors)
 {
-    return errors->ode + errors->lam + errors->dense;
-}
-
-/* err_dense: the velocity outputs' interpolation error inside the step (the cubic Hermite
-   interpolant of qd and qdd at both ends, docs/method.md 5), h^4 |qd| / 384 with qd
-   from the third divided difference of the accepted accelerations and qdd1, in the weighted
-   norm of the qd components; 0 until three accelerations are known. */
-double dep_dense_error(const dep_acceleration_history *history, double t1, const double *qdd1,
-                       const double *scale_qd, int nq, double *scratch)
-{
-    int n = history->count;
-    if (n < 3) {
-        return 0.0;
-    }
-    const double *points[4] = {history->qdd[n - 3], history->qdd[n - 2], history->qdd[n - 1],
-                               qdd1};
-    double t[4] = {history->t[n - 3], history->t[n - 2], history->t[n - 1], t1};
-    double h = t1 - t[2];
-    for (int j = 0; j < nq; ++j) {
-        double d[4];
-        for (int k = 0; k < 4; ++k) {
-            d[k] = points[k][j];
-        }
-        for (int level = 1; level < 4; ++level) {
-            for (int k = 3; k >= level; --k) {
-                d[k] = (d[k] - d[k - 1]) / (t[k] - t[k - level]);
-            }
-        }
-        scratch[j] = pow(h, 4) * 6.0 * d[3] / 384.0;
-    }
-    return dep_rms(scratch, scale_qd, nq);
-}
-
-int dep_acceleration_history_init(dep_acceleration_history *history, int nq, dep_arena *arena)
-{
-    memset(history, 0, sizeof *history);
-    history->nq = nq;
-    for (int k = 0; k < 3; ++k) {
-        history->qdd[k] = dep_doubles(arena, (size_t)nq);
-    }
-    return arena->failed ? DEP_MEMORY_ERROR : DEP_OK;
-}
-
-void dep_acceleration_history_add(dep_acceleration_history *history, double t,
-                                  const double *qdd, int restart)
-{
-    if (restart) {
-        history->count = 0;
-    }
-    if (history->count == 3) {
-        double *oldest = history->qdd[0];
-        for (int k = 1; k < 3; ++k) {
-            history->t[k - 1] = history->t[k];
-            history->qdd[k - 1] = history->qdd[k];
-        }
-        history->qdd[2] = oldest;
-        history->count--;
-    }
-    history->t[history->count] = t;
-    memcpy(history->qdd[history->count], qdd, (size_t)history->nq * sizeof *qdd);
-    history->count++;
+    return errors->ode + errors->lam;
 }
 
 /* The largest fac the position pass's contraction rate rho allows (rho ~ (omega h)^2). */

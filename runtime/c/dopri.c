@@ -107,8 +107,9 @@ void dep_dense_components(const dep_rk_step *rk, double t, int first, int count,
     }
 }
 
-/* StepInterpolant's data, 10 x nq: the quintic's rows (q0, h qd0, h^2 qdd0, q1, h qd1,
-   h^2 qdd1) then the cubic's (qd0, h qdd0, qd1, h qdd1). */
+/* The step interpolant's data, 12 x nq + 1: the quintic's rows (q0, h qd0, h^2 qdd0, q1, h qd1,
+   h^2 qdd1), the velocity interpolant's (qd0, h qdd0, qd1, h qdd1, qd_prior, h qdd_prior) and
+   h_prior / h, 0 until dep_interpolant_prior gives the accepted point before the step. */
 void dep_interpolant_data(double h, const double *q0, const double *qd0, const double *qdd0,
                           const double *q1, const double *qd1, const double *qdd1, int nq,
                           double *data)
@@ -126,15 +127,47 @@ void dep_interpolant_data(double h, const double *q0, const double *qd0, const d
         data[8 * nq + j] = qd1[j];
         data[9 * nq + j] = h * qdd1[j];
     }
+    data[12 * nq] = 0.0;
+}
+
+/* Adds the accepted point before the step (h_prior before its start) to the velocity
+   interpolant. */
+void dep_interpolant_prior(double *data, int nq, double h, double h_prior, const double *qd,
+                           const double *qdd)
+{
+    for (int j = 0; j < nq; ++j) {
+        data[10 * nq + j] = qd[j];
+        data[11 * nq + j] = h * qdd[j];
+    }
+    data[12 * nq] = h_prior / h;
+}
+
+/* qd at x on the quintic Hermite interpolant of (qd, h qdd) = (v, d) at x = -r, 0 and 1
+   (Newton's form on the doubled nodes). */
+static double rate_through_three(double x, double r, const double v[3], const double d[3])
+{
+    const double z[6] = {-r, -r, 0.0, 0.0, 1.0, 1.0};
+    double c[6] = {v[0], d[0], (v[1] - v[0]) / r, d[1], v[2] - v[1], d[2]};
+    for (int level = 2; level < 6; ++level) {
+        for (int k = 5; k >= level; --k) {
+            c[k] = (c[k] - c[k - 1]) / (z[k] - z[k - level]);
+        }
+    }
+    double p = c[5];
+    for (int k = 4; k >= 0; --k) {
+        p = p * (x - z[k]) + c[k];
+    }
+    return p;
 }
 
 /* q at t on the quintic Hermite interpolant of the two accepted states (q, qd, qdd at both
-   ends) and qd on the cubic Hermite interpolant of (qd, qdd): O(h^5) or better, see
-   the method's step interpolant (docs/method.md, 5). */
+   ends); qd on the quintic Hermite interpolant of (qd, qdd) at the step's ends and the
+   accepted point before it, or after a start or an event on the cubic Hermite interpolant of
+   the step's ends (docs/method.md, 5). */
 void dep_interpolate(const double *data, double t0, double h, int nq, double t, double *q,
                      double *qd)
 {
-    double x = (t - t0) / h;
+    double x = (t - t0) / h, r = data[12 * nq];
     double x2 = x * x, x3 = pow(x, 3);
     double x4 = x3 * x, x5 = x3 * x2;
     double quintic[6] = {1 - 10 * x3 + 15 * x4 - 6 * x5, x - 6 * x3 + 8 * x4 - 3 * x5,
@@ -142,14 +175,21 @@ void dep_interpolate(const double *data, double t0, double h, int nq, double t, 
                          -4 * x3 + 7 * x4 - 3 * x5, 0.5 * (x3 - 2 * x4 + x5)};
     double cubic[4] = {2 * x3 - 3 * x2 + 1, x3 - 2 * x2 + x, 3 * x2 - 2 * x3, x3 - x2};
     for (int j = 0; j < nq; ++j) {
-        double value = 0.0, rate = 0.0;
-        for (int r = 0; r < 6; ++r) {
-            value += quintic[r] * data[r * nq + j];
-        }
-        for (int r = 0; r < 4; ++r) {
-            rate += cubic[r] * data[(6 + r) * nq + j];
+        double value = 0.0;
+        for (int k = 0; k < 6; ++k) {
+            value += quintic[k] * data[k * nq + j];
         }
         q[j] = value;
-        qd[j] = rate;
+        if (r > 0.0) {
+            const double v[3] = {data[10 * nq + j], data[6 * nq + j], data[8 * nq + j]};
+            const double d[3] = {data[11 * nq + j], data[7 * nq + j], data[9 * nq + j]};
+            qd[j] = rate_through_three(x, r, v, d);
+        } else {
+            double rate = 0.0;
+            for (int k = 0; k < 4; ++k) {
+                rate += cubic[k] * data[(6 + k) * nq + j];
+            }
+            qd[j] = rate;
+        }
     }
 }

@@ -126,9 +126,7 @@ static int event_shift(dep_run *run, const dep_event *event, double h, double *s
     }
     dep_interpolate(run->fired.data, prior->t, here->t - prior->t, run->nq, back, run->q,
                     run->qd);
-    for (int i = 0; i < run->cs.nc; ++i) {
-        run->dense_lam[i] = prior->lam[i] + (back - prior->t) / h * (here->lam[i] - prior->lam[i]);
-    }
+    dep_profile_value(&run->fired.profile, here->lam, back, run->cs.nc, run->dense_lam);
     status = event_value(run, event, back, run->q, run->qd, run->dense_lam, &g_back);
     double slope = (g - g_back) / (EVENT_SLOPE_FRACTION * h);
     *shift = slope != 0.0 ? -g / slope : 0.0;
@@ -153,6 +151,7 @@ static int retake(dep_run *run, const dep_event *event, double *t_event, const d
         if (status == DEP_PASS_FAILED) {
             return dep_run_pass_error(run, &failure, *t_event);
         }
+        dep_run_attach_prior(run, &run->fired);
 #ifdef DEP_TRACE
         fprintf(stderr, "event step t=%.17g h=%.17g integrations %d\n", prior->t, h,
                 run->fired.integrations);
@@ -241,10 +240,7 @@ static int dense_output(void *context, double t, double *q, double *qd, dep_acti
     }
     dep_pass_report report;
     dep_failure failure;
-    double s = (t - start->t) / (new->t - start->t);
-    for (int i = 0; i < run->cs.nc; ++i) {
-        run->dense_lam[i] = start->lam[i] + s * (new->lam[i] - start->lam[i]);
-    }
+    dep_profile_value(&run->outcome.profile, new->lam, t, run->cs.nc, run->dense_lam);
     dep_cs_jacobian(&run->cs, q, t, run->dense_J);
     int status = dep_acceleration(&run->stepper, q, qd, t, run->dense_lam, run->dense_J,
                                   ++run->stepper.jacobian_ids, run->mass_qd, &report, &failure);
@@ -277,9 +273,12 @@ int dep_run_after_step(dep_run *run, int *stop)
         return status;
     }
     if (k < 0) {
+        run->prior.valid = 1;
+        run->prior.t = run->state.t;
+        memcpy(run->prior.qd, run->state.qd, (size_t)run->nq * sizeof(double));
+        memcpy(run->prior.qdd, run->state.qdd, (size_t)run->nq * sizeof(double));
         dep_state_copy(&run->state, new, run->nq, run->cs.nc, run->nd);
         dep_history_add(&run->history, new->t, new->lam);
-        dep_acceleration_history_add(&run->accelerations, new->t, new->qdd, 0);
         dep_run_observe_loads(run, &run->state);
         return DEP_OK;
     }

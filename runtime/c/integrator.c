@@ -71,8 +71,17 @@ int dep_run_restart(dep_run *run, double t, const double *q, const double *qd,
     }
     dep_tally_observe(&run->tally, &report);
     dep_history_reset(&run->history, t, s->lam, run->cs.nc);
-    dep_acceleration_history_add(&run->accelerations, t, s->qdd, 1);
+    run->prior.valid = 0;
     return DEP_OK;
+}
+
+/* Gives the interpolant of `end`, a step from run->state, the accepted point before it. */
+void dep_run_attach_prior(const dep_run *run, dep_outcome *end)
+{
+    if (run->prior.valid) {
+        dep_interpolant_prior(end->data, run->nq, end->state.t - run->state.t,
+                              run->state.t - run->prior.t, run->prior.qd, run->prior.qdd);
+    }
 }
 
 /* ---- recording ----------------------------------------------------------------------------- */
@@ -169,11 +178,9 @@ static void step_errors(dep_run *run, const dep_outcome *outcome, dep_step_error
                                      outcome->lam_position, outcome->J1, &run->system.mass,
                                      scale, nq, scratch, &e->lam_order)
              * sqrt((double)nq / run->ny);
-    e->dense = dep_dense_error(&run->accelerations, outcome->state.t, outcome->state.qdd,
-                               scale + nq, nq, scratch) * sqrt((double)nq / run->ny);
-    if (!isfinite(e->ode + e->lam + e->dense)) {
+    if (!isfinite(e->ode + e->lam)) {
         e->ode = INFINITY;
-        e->lam = e->dense = 0.0;
+        e->lam = 0.0;
     }
 }
 
@@ -206,13 +213,14 @@ static int advance(dep_run *run, double *h)
         step_errors(run, &run->outcome, &errors);
         int accepted = dep_step_error(&errors) <= 1.0;
         double fac = dep_step_factor(&errors, run->err_previous, accepted);
-        TRACE("step t=%.17g h=%.17g ode=%.17g lam=%.17g dense=%.17g iterations %d %d %d "
-              "integrations %d %s\n", run->state.t, *h, errors.ode, errors.lam, errors.dense,
+        TRACE("step t=%.17g h=%.17g ode=%.17g lam=%.17g iterations %d %d %d "
+              "integrations %d %s\n", run->state.t, *h, errors.ode, errors.lam,
               run->outcome.reports[0].iterations,
               run->outcome.reports[1].iterations, run->outcome.reports[2].iterations,
               run->outcome.integrations, accepted ? "accepted" : "rejected");
         if (accepted) {
             dep_tally_accept(&run->tally, run->outcome.reports, *h);
+            dep_run_attach_prior(run, &run->outcome);
             run->err_previous = dep_step_error(&errors);
             run->h_cap = run->h_cap < 1e300 ? run->h_cap * CAP_RELAX : INFINITY;
             *h *= fmin(fac, dep_convergence_factor(&run->outcome.reports[0]));
@@ -293,7 +301,8 @@ static int setup(dep_run *run, const double *params, const dep_event *events, in
     if (dep_constraints_init(&run->cs, &run->system, arena) != DEP_OK
         || dep_stepper_init(&run->stepper, &run->system, &run->cs, run->settings.tol, arena)
         || dep_history_init(&run->history, run->cs.capacity, arena)
-        || dep_acceleration_history_init(&run->accelerations, m->nq, arena)
+        || (run->prior.qd = dep_doubles(arena, (size_t)m->nq)) == NULL
+        || (run->prior.qdd = dep_doubles(arena, (size_t)m->nq)) == NULL
         || dep_state_init(&run->state, m->nq, run->cs.capacity, run->nd, arena)
         || dep_outcome_init(&run->outcome, m->nq, run->cs.capacity, run->nd, arena)
         || dep_outcome_init(&run->fired, m->nq, run->cs.capacity, run->nd, arena)

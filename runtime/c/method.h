@@ -65,6 +65,8 @@ void dep_dense_components(const dep_rk_step *rk, double t, int first, int count,
 void dep_interpolant_data(double h, const double *q0, const double *qd0, const double *qdd0,
                           const double *q1, const double *qd1, const double *qdd1, int nq,
                           double *data);
+void dep_interpolant_prior(double *data, int nq, double h, double h_prior, const double *qd,
+                           const double *qdd);
 void dep_interpolate(const double *data, double t0, double h, int nq, double t, double *q,
                      double *qd);
 
@@ -171,23 +173,10 @@ typedef struct dep_step_errors {
     double ode;       /* the ODE method's (DOPRI 5(4)), tangential part */
     double lam;       /* the multipliers' interpolation */
     int lam_order;    /* its power of h */
-    double dense;     /* the velocity outputs' interpolation (power 4) */
 } dep_step_errors;
-
-/* The last three accepted accelerations (for err_dense). */
-typedef struct dep_acceleration_history {
-    int count, nq;
-    double t[3];
-    double *qdd[3];
-} dep_acceleration_history;
 
 double dep_step_error(const dep_step_errors *errors);
 double dep_step_factor(const dep_step_errors *errors, double err_previous, int accepted);
-double dep_dense_error(const dep_acceleration_history *history, double t1, const double *qdd1,
-                       const double *scale_qd, int nq, double *scratch);
-int dep_acceleration_history_init(dep_acceleration_history *history, int nq, dep_arena *arena);
-void dep_acceleration_history_add(dep_acceleration_history *history, double t,
-                                  const double *qdd, int restart);
 double dep_convergence_factor(const dep_pass_report *report);
 double dep_initial_step(dep_rhs_function rhs, void *context, double t0, const double *y0,
                         const double *f0, int n, double tol, double span, double *scratch);
@@ -220,7 +209,7 @@ typedef struct dep_outcome {
     const double *J1;        /* Phi_q at the new state */
     long long J1_id;         /* its identity (the Schur cache key) */
     const double *lam_position; /* lambda_{i+1} as the position pass left it */
-    double *data;            /* 10 x nq: the step interpolant (dep_interpolant_data) */
+    double *data;            /* 12 x nq + 1: the step interpolant (dep_interpolant_data) */
     dep_pass_report reports[3];
     int integrations;
     dep_profile profile;     /* the step's lambda(t) (its history part; the end is the state's) */

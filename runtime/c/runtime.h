@@ -17,6 +17,14 @@
 
 #define DEP_USER_DATA (DEP_MAX_DATA + 1) /* a user event's numbers and impact_energy_loss */
 
+/* The accepted point before run->state (for the velocity interpolant, dopri.c); valid is 0
+   after a start or an event. */
+typedef struct dep_prior {
+    int valid;
+    double t;
+    double *qd, *qdd;
+} dep_prior;
+
 typedef struct dep_run {
     const dep_model *model;
     dep_settings settings;
@@ -30,7 +38,7 @@ typedef struct dep_run {
     int n_user_events;
     dep_tally tally;
     dep_history history;
-    dep_acceleration_history accelerations;
+    dep_prior prior;
     dep_loads loads;
     dep_state state;
     dep_outcome outcome, fired;
@@ -54,6 +62,7 @@ int dep_run_restart(dep_run *run, double t, const double *q, const double *qd,
 int dep_run_record_until(dep_run *run, double t_until, const dep_outcome *end);
 int dep_run_start(dep_run *run, const double *q0, const double *qd0);
 int dep_run_after_step(dep_run *run, int *stop);
+void dep_run_attach_prior(const dep_run *run, dep_outcome *end);
 const dep_active_rows *dep_run_rows(dep_run *run, const dep_state *state);
 void dep_run_observe_loads(dep_run *run, const dep_state *s);
 int dep_run_add_record(dep_run *run, const char *name, double t, const dep_datum *data, int n);

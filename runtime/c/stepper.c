@@ -49,7 +49,7 @@ void dep_state_copy(dep_state *to, const dep_state *from, int nq, int nc, int nd
 int dep_outcome_init(dep_outcome *outcome, int nq, int capacity, int nd, dep_arena *arena)
 {
     memset(outcome, 0, sizeof *outcome);
-    outcome->data = dep_doubles(arena, 10 * (size_t)nq);
+    outcome->data = dep_doubles(arena, 12 * (size_t)nq + 1);
     return dep_state_init(&outcome->state, nq, capacity, nd, arena);
 }
 

@@ -8,6 +8,10 @@
  *                                the final q, then qd
  *   core_checks project NQ NC    reads M (NQ x NQ), J (NC x NQ) and qd (NQ) from stdin, prints
  *                                the plastic-impact projection of qd onto J qd+ = 0
+ *   core_checks interpolant N    reads t_prior t0 t1, then (q, qd, qdd) at t0 and t1 and (qd,
+ *                                qdd) at t_prior for one coordinate, then N times in [t0, t1];
+ *                                prints q, qd on the step interpolant at each time, with the
+ *                                prior point and without it
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -178,6 +182,28 @@ static int project(int nq, int nc)
     return 0;
 }
 
+/* ---- the step interpolant ------------------------------------------------------------------ */
+
+static int interpolant(int n)
+{
+    double *given = read_numbers(3 + 8 + n), data[12 + 1], with[2], without[2];
+    if (given == NULL) {
+        return fail("bad input");
+    }
+    double t_prior = given[0], t0 = given[1], h = given[2] - given[1];
+    const double *v = given + 3, *times = given + 11;
+    dep_interpolant_data(h, &v[0], &v[1], &v[2], &v[3], &v[4], &v[5], 1, data);
+    for (int k = 0; k < n; ++k) {
+        dep_interpolate(data, t0, h, 1, times[k], &without[0], &without[1]);
+        dep_interpolant_prior(data, 1, h, t0 - t_prior, &v[6], &v[7]);
+        dep_interpolate(data, t0, h, 1, times[k], &with[0], &with[1]);
+        data[12] = 0.0;
+        printf("%.17g %.17g %.17g %.17g\n", with[0], with[1], without[0], without[1]);
+    }
+    free(given);
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
     if (argc == 3 && strcmp(argv[1], "iteration") == 0) {
@@ -189,5 +215,8 @@ int main(int argc, char **argv)
     if (argc == 4 && strcmp(argv[1], "project") == 0) {
         return project(atoi(argv[2]), atoi(argv[3]));
     }
-    return fail("usage: core_checks iteration H | fixed N T | project NQ NC");
+    if (argc == 3 && strcmp(argv[1], "interpolant") == 0) {
+        return interpolant(atoi(argv[2]));
+    }
+    return fail("usage: core_checks iteration H | fixed N T | project NQ NC | interpolant N");
 }

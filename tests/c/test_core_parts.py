@@ -1,6 +1,7 @@
 """The integrator core's parts, below a whole run (tests/c/core_checks.c): the iteration (6)
 decreases each pass's error monotonically, the position pass's sensitivity is h^2/6 as
-docs/method.md derives, the method converges with order 5 at fixed steps, and the plastic
+docs/method.md derives, the method converges with order 5 at fixed steps, the step
+interpolant reproduces quintics, and the plastic
 impact is the mass-orthogonal velocity projection (conjugate gradients on S, no
 factorisation) for diagonal and full mass matrices."""
 
@@ -105,6 +106,34 @@ def test_observed_order_of_convergence_is_five(checks):
         errors.append(max(abs(phi + np.pi / 2 - theta), abs(phi_rate - omega)))
     observed = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
     assert abs(observed[-1] - 5) < 0.3, observed
+
+
+def test_step_interpolant_is_exact_for_quintics_with_the_prior_point(checks):
+    """q on the quintic Hermite interpolant of the step's ends; qd on the quintic Hermite
+    interpolant of (qd, qdd) at the prior point and the ends (cubic without the prior point):
+    both reproduce a quintic exactly, on unequal steps."""
+    rng = np.random.default_rng(5)
+    position = np.polynomial.Polynomial(rng.normal(size=6))    # q of degree 5
+    rate = np.polynomial.Polynomial(rng.normal(size=6))        # qd of degree 5
+    t_prior, t0, t1 = 0.1, 0.4, 0.9
+    values = [position(t0), rate(t0), rate.deriv()(t0), position(t1), rate(t1),
+              rate.deriv()(t1), rate(t_prior), rate.deriv()(t_prior)]
+    times = np.linspace(t0, t1, 11)
+    stdin = " ".join(repr(float(v)) for v in [t_prior, t0, t1, *values, *times])
+    out = np.array([[float(v) for v in line.split()]
+                    for line in checks("pendulum")("interpolant", len(times),
+                                                   stdin=stdin).splitlines()])
+    # q uses the position polynomial's own rates at the ends: give it those instead
+    values_q = [position(t0), position.deriv()(t0), position.deriv(2)(t0), position(t1),
+                position.deriv()(t1), position.deriv(2)(t1), 0.0, 0.0]
+    stdin_q = " ".join(repr(float(v)) for v in [t_prior, t0, t1, *values_q, *times])
+    out_q = np.array([[float(v) for v in line.split()]
+                      for line in checks("pendulum")("interpolant", len(times),
+                                                     stdin=stdin_q).splitlines()])
+    assert np.allclose(out_q[:, 0], position(times), rtol=0, atol=1e-13)
+    assert np.allclose(out[:, 1], rate(times), rtol=0, atol=1e-13)
+    assert np.max(np.abs(out[:, 3] - rate(times))) > 1e-4  # the cubic alone is not exact
+    assert np.allclose(out[[0, -1], 3], rate(times[[0, -1]]), rtol=0, atol=1e-13)
 
 
 @pytest.mark.parametrize("diagonal", [True, False])
