@@ -96,7 +96,8 @@ static void slip(settle_context *x, dep_hinge_mechanics *h, double lam)
 }
 
 /* stuck -> slip (holding torque reached static friction); slipping at rest -> the
-   stick-or-slip test with a trial lock row at the current angle. */
+   stick-or-slip test with a trial lock row at the current angle (a hinge that still moves
+   only takes the direction of its rate). */
 static int stick(settle_context *x, dep_hinge_mechanics *h, int kind, int *follow, int *n_follow)
 {
     double lam;
@@ -110,6 +111,14 @@ static int stick(settle_context *x, dep_hinge_mechanics *h, int kind, int *follo
             slip(x, h, lam);
         }
         return status;
+    }
+    double rate = dep_mechanism_rate(x->m, h, x->q, x->qd);
+    if (fabs(rate) > REST * x->m->tol * fmax(1.0, dep_max_abs(x->qd, x->nq))) {
+        /* not at rest (its rate changed sign in a jump): it slips the way it moves */
+        h->direction = rate > 0 ? 1.0 : -1.0;
+        dep_event_record *r = dep_settle_record(x, h, "slip");
+        dep_settle_put_number(x, r, "direction", h->direction);
+        return DEP_OK;
     }
     double theta = dep_mechanism_angle(x->m, h, x->q);
     dep_settle_add_lock(x, h, theta, "stick");
@@ -182,32 +191,45 @@ static void release_stops(settle_context *x, int n_released)
     }
 }
 
-/* The hinges that stuck before the impact (rows skip[]): they slip in the direction of their
-   new rate, or are due for the stick-or-slip test at rest (follow[]: hinge * 4 + kind). */
-static void unstick(settle_context *x, char (*skip)[DEP_NAME_MAX], int n_skip, int *follow,
-                    int *n_follow)
+/* After the impact every stick-slip hinge that is neither latched nor at a stop is classified
+   again from its new rate: the hinges that stuck before it (rows skip[], released for the
+   impact) and the slipping ones alike. Moving, it slips in the direction of its rate (a
+   "slip" record when that is a change); at rest it is due for the stick-or-slip test
+   (follow[]: hinge * 4 + kind). */
+static void reclassify(settle_context *x, char (*skip)[DEP_NAME_MAX], int n_skip, int *follow,
+                       int *n_follow)
 {
     dep_mechanism *m = x->m;
     double at_rest = REST * m->tol * fmax(1.0, dep_max_abs(x->qd, x->nq));
-    for (int k = 0; k < n_skip; ++k) {
-        for (int i = 0; i < m->n_hinges; ++i) {
-            dep_hinge_mechanics *h = &m->hinges[i];
-            char name[DEP_NAME_MAX + 8];
-            snprintf(name, sizeof name, "%s.stick", h->name);
-            if (strcmp(name, skip[k]) != 0) {
-                continue;
-            }
+    for (int i = 0; i < m->n_hinges; ++i) {
+        dep_hinge_mechanics *h = &m->hinges[i];
+        if (!h->has_static || h->latch_state == DEP_LATCHED || h->stop != DEP_STOP_NONE) {
+            continue;
+        }
+        char name[DEP_NAME_MAX + 8];
+        snprintf(name, sizeof name, "%s.stick", h->name);
+        int was_stuck = 0;
+        for (int k = 0; k < n_skip && !was_stuck; ++k) {
+            was_stuck = strcmp(name, skip[k]) == 0;
+        }
+        if (h->stuck && !was_stuck) {
+            continue; /* stuck by a row that took part in the impact: still at rest */
+        }
+        if (was_stuck) {
             dep_settle_remove_row(x, h, "stick");
             h->stuck = 0;
-            double rate = dep_mechanism_rate(m, h, x->q, x->qd);
-            if (fabs(rate) > at_rest) {
-                h->direction = rate > 0 ? 1.0 : -1.0;
-                dep_event_record *r = dep_settle_record(x, h, "slip");
-                dep_settle_put_number(x, r, "direction", h->direction);
-                dep_settle_put_text(x, r, "cause", "impact");
-            } else {
-                follow[(*n_follow)++] = i * 4 + DEP_KIND_STICK;
-            }
+        }
+        double rate = dep_mechanism_rate(m, h, x->q, x->qd);
+        if (fabs(rate) <= at_rest) {
+            follow[(*n_follow)++] = i * 4 + DEP_KIND_STICK;
+            continue;
+        }
+        double direction = rate > 0 ? 1.0 : -1.0;
+        if (was_stuck || direction != h->direction) {
+            h->direction = direction;
+            dep_event_record *r = dep_settle_record(x, h, "slip");
+            dep_settle_put_number(x, r, "direction", h->direction);
+            dep_settle_put_text(x, r, "cause", "impact");
         }
     }
 }
@@ -242,7 +264,7 @@ int dep_settle_impact(settle_context *x, int *follow, int *n_follow)
     memcpy(x->qd, x->qd_new, (size_t)x->nq * sizeof *x->qd);
     impact_records(x, cs, loss);
     release_stops(x, n_released);
-    unstick(x, skip, n_skip, follow, n_follow);
+    reclassify(x, skip, n_skip, follow, n_follow);
     return DEP_OK;
 }
 
