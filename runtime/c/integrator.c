@@ -313,8 +313,13 @@ static int setup(dep_run *run, const double *params, const dep_event *events, in
     status = dep_recorder_init(&run->recorder, &run->system, &run->settings, run->cs.capacity,
                                arena);
     if (status == DEP_SETTINGS_ERROR) {
-        return dep_plain_error(run->error, status, "t_end / dt_out asks for more than 1e8 "
-                               "output times; use a larger dt_out");
+        char what[200];
+        snprintf(what, sizeof what, "t_end / dt_out = %.6g / %.6g asks for %.4g output times; "
+                 "this model records at most %.0f (1 GiB of results): use a larger dt_out",
+                 run->settings.t_end, run->settings.dt_out,
+                 floor(run->settings.t_end / run->settings.dt_out) + 1,
+                 dep_max_output_times(&run->system));
+        return dep_plain_error(run->error, status, what);
     }
     size_t capacity = (size_t)run->cs.capacity, nq = (size_t)m->nq, ny = (size_t)run->ny;
     run->scratch = dep_doubles(arena, capacity * nq + (DEP_HISTORY + 2) * capacity + 3 * ny

@@ -7,11 +7,28 @@
 
 #include "runtime.h"
 
+/* The most output times a run records: at most DEP_MAX_OUTPUT_TIMES, and at most
+   DEP_MAX_OUTPUT_BYTES of recorded rows (the Python side copies them once more). */
+#define DEP_MAX_OUTPUT_TIMES 10000000.0
+#define DEP_MAX_OUTPUT_BYTES 1073741824.0 /* 1 GiB */
+
+static double row_bytes(const dep_system *system)
+{
+    const dep_model *m = system->model;
+    return 8.0 * (1 + 2 * m->nq + 3 * m->nh + m->nout + 3 + system->ne + system->nd);
+}
+
+double dep_max_output_times(const dep_system *system)
+{
+    return fmin(DEP_MAX_OUTPUT_TIMES, floor(DEP_MAX_OUTPUT_BYTES / row_bytes(system)));
+}
+
 /* 0, dt_out, 2 dt_out, ... up to t_end, with t_end itself always last (s). */
-static int output_times(double t_end, double dt_out, double **times, dep_arena *arena)
+static int output_times(double t_end, double dt_out, double limit, double **times,
+                        dep_arena *arena)
 {
     double ratio = floor(t_end / dt_out * (1 + 1e-12));
-    if (!(ratio < 1e8)) {
+    if (!(ratio + 2 <= limit)) {
         return DEP_SETTINGS_ERROR;
     }
     int count = (int)ratio, n = count + 1;
@@ -37,7 +54,8 @@ int dep_recorder_init(dep_recorder *rec, const dep_system *system, const dep_set
     memset(rec, 0, sizeof *rec);
     rec->system = system;
     rec->arena = arena;
-    int n = output_times(settings->t_end, settings->dt_out, &rec->times, arena);
+    int n = output_times(settings->t_end, settings->dt_out, dep_max_output_times(system),
+                         &rec->times, arena);
     if (n >= 0) {
         return n;
     }

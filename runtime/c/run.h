@@ -67,6 +67,7 @@ typedef struct dep_recorder {
     dep_arena *arena;
 } dep_recorder;
 
+double dep_max_output_times(const dep_system *system);
 int dep_recorder_init(dep_recorder *rec, const dep_system *system, const dep_settings *settings,
                       int capacity, dep_arena *arena);
 int dep_recorder_pending(dep_recorder *rec, double t_until, int *first);

@@ -110,6 +110,10 @@ def test_bad_arguments_are_value_errors(pendulum):
         simulate(pendulum, dt_out=0.0)
     with pytest.raises(ValueError, match="t_end"):
         simulate(pendulum, t_end=-1.0)
+    # 1e10 output rows would be 74 GiB of results: refused before anything is allocated
+    with pytest.raises(ValueError, match=r"asks for 1e\+10 output times; this model records "
+                                         r"at most \d+ \(1 GiB of results\)"):
+        simulate(pendulum, t_end=10.0, dt_out=1e-9)
     partial = variant(pendulum)
     del partial.gamma
     with pytest.raises(TypeError, match="missing gamma"):
