@@ -111,12 +111,14 @@ class Simulator:
         return p
 
     def run(self, set: Mapping[str, float | str] | None = None, t_end: float | None = None,
-            dt_out: float | None = None, tol: float | None = None, progress: bool = False):
-        """Simulate with parameters `set` applied; returns a `depsim.runtime.Result`."""
+            dt_out: float | None = None, tol: float | None = None, progress: bool = False,
+            max_steps: float | None = None):
+        """Simulate with parameters `set` applied; returns a `depsim.runtime.Result`.
+        max_steps: the most steps the run may take (default 1e6; docs/method.md, 6)."""
         from depsim.runtime import simulate
 
         return simulate(self.module, self.parameters(set), t_end=t_end, dt_out=dt_out,
-                        tol=tol, progress=progress)
+                        tol=tol, progress=progress, max_steps=max_steps)
 
 
 def _unknown_parameter(name: str, by_name, derived) -> str:

@@ -28,14 +28,17 @@ from .results import EventRecord, PassStats, Result, Stats
 
 def simulate(module, params: np.ndarray | None = None, t_end: float | None = None,
              dt_out: float | None = None, tol: float | None = None, events=(),
-             progress: bool = False, mechanics: bool = True) -> Result:
+             progress: bool = False, mechanics: bool = True,
+             max_steps: float | None = None) -> Result:
     """Integrate a model with the iterative multiplier method (docs/method.md).
 
     module: a generated NumPy module (docs/generated-module.md) or a compiled C model
     (`depsim.runtime.binding.load_folder`); params (NP,) SI, default PARAMETER_DEFAULTS;
     t_end, dt_out (s) and tol default to the module's T_END, DT_OUT, TOL; events: `Event`s;
     progress: draw a bar on stderr (only when it is a terminal); mechanics: apply the hinges'
-    latches, stops and stick-slip friction (docs/deployment.md); False integrates without.
+    latches, stops and stick-slip friction (docs/deployment.md); False integrates without;
+    max_steps: the most accepted steps (default 1e6); a stiff run that would need more stops
+    as soon as the stiffness shows (docs/method.md, 6).
     Raises SolverError when the integration cannot go on, ValueError for bad settings.
     """
     binding = bind(module)
@@ -44,7 +47,8 @@ def simulate(module, params: np.ndarray | None = None, t_end: float | None = Non
     view, library = ffi(), core()
     settings = view.new("dep_settings *", {
         "t_end": _setting(t_end, model.T_END), "dt_out": _setting(dt_out, model.DT_OUT),
-        "tol": _setting(tol, model.TOL), "mechanics": int(bool(mechanics))})
+        "tol": _setting(tol, model.TOL), "mechanics": int(bool(mechanics)),
+        "max_steps": _setting(max_steps, 0.0)})
     bridge = EventBridge(model, p, events)
     bar = Progress(settings.t_end, progress)
 

@@ -48,7 +48,13 @@ typedef struct dep_settings {
        progress bar or honours Ctrl-C here. */
     int (*progress)(void *context, double t);
     void *progress_context;
+    /* The most accepted steps a run may take (0: DEP_MAX_STEPS). A run that would need more
+       stops with a SolverError: at once when its step is held down by stability (a stiff
+       mode) and the steps left would pass the limit, else when it is reached. */
+    double max_steps;
 } dep_settings;
+
+#define DEP_MAX_STEPS 1e6 /* the default of dep_settings.max_steps */
 
 /* Why a run stopped, with the parts of Python's SolverError. `message` is the full text,
    exactly as str(SolverError) (or the ValueError text for DEP_SETTINGS_ERROR). */

@@ -40,6 +40,7 @@ int dep_rk_init(dep_rk_step *rk, int n, dep_arena *arena)
     rk->y1 = dep_doubles(arena, (size_t)n);
     rk->error = dep_doubles(arena, (size_t)n);
     rk->K = dep_doubles(arena, 7 * (size_t)n);
+    rk->mode = dep_doubles(arena, (size_t)n);
     return arena->failed ? DEP_MEMORY_ERROR : DEP_OK;
 }
 
@@ -81,6 +82,14 @@ void dep_dopri_step(dep_rk_step *rk, dep_rhs_function rhs, void *context, double
         rk->y1[j] = y0[j] + h * rk->y1[j];
     }
     rhs(context, t0 + h, rk->y1, K + 6 * (size_t)n);
+    double num = 0.0, den = 0.0; /* scratch: the sixth stage's argument, also at t0 + h */
+    for (int j = 0; j < n; ++j) {
+        double dk = K[6 * (size_t)n + j] - K[5 * (size_t)n + j];
+        rk->mode[j] = rk->y1[j] - scratch[j];
+        num += dk * dk;
+        den += rk->mode[j] * rk->mode[j];
+    }
+    rk->stiffness = den > 0.0 ? h * sqrt(num / den) : 0.0;
     combine(E, 7, K, n, rk->error);
     for (int j = 0; j < n; ++j) {
         rk->error[j] = h * rk->error[j];

@@ -178,6 +178,12 @@ int dep_check_settings(const dep_model *model, const double *p, const dep_settin
             return dep_plain_error(error, DEP_SETTINGS_ERROR, message);
         }
     }
+    if (!(settings->max_steps >= 0 && settings->max_steps < 1e15)) {
+        dep_repr(settings->max_steps, number, sizeof number);
+        snprintf(message, sizeof message, "max_steps must be a positive number of steps (0: "
+                 "the default, %.0f), got %s", DEP_MAX_STEPS, number);
+        return dep_plain_error(error, DEP_SETTINGS_ERROR, message);
+    }
     if (settings->tol < TOL_FLOOR) {
         char what[120], hint[60];
         snprintf(what, sizeof what, "tol = %.3g is tighter than double-precision round-off",

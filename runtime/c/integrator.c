@@ -20,6 +20,11 @@
 #endif
 
 #define MAX_FAILURES 12 /* consecutive non-converged steps (h / 4 each) before giving up */
+#define STIFF_BOUND 2.0 /* h |lambda| this near DOPRI5's stability bound (3.3 on the real
+                           axis): where the PI controller holds a stiff run's step */
+#define STIFF_STEPS 15   /* accepted steps at the bound, with fewer than 6 free in between */
+#define GRIND_FACTOR 100 /* a run whose steps would pass max_steps that many times over... */
+#define GRIND_STEPS 1000 /* ...for that many steps in a row stops */
 #define CAP_RELAX 1.2
 
 /* ---- errors ----------------------------------------------------------------------------- */
@@ -184,6 +189,69 @@ static void step_errors(dep_run *run, const dep_outcome *outcome, dep_step_error
     }
 }
 
+/* The coordinate a motion moves most: its velocity components weighted by sqrt(M_jj). */
+static const char *moving_most(const dep_run *run, const double *qd)
+{
+    int nq = run->nq, best = 0;
+    double largest = -1.0;
+    for (int j = 0; j < nq; ++j) {
+        double size = fabs(qd[j]) * sqrt(fabs(run->system.mass.matrix[(size_t)j * nq + j]));
+        if (size > largest) {
+            largest = size;
+            best = j;
+        }
+    }
+    return run->model->coordinate_names[best];
+}
+
+/* After an accepted step of size h: a run stops rather than grind when its steps would pass
+   max_steps. At once when a stiff mode holds the step at DOPRI's stability bound (Hairer's
+   test, STIFF_STEPS steps with h |lambda| > STIFF_BOUND) and the steps left at this size would
+   pass the limit; when the steps left at this size would pass it GRIND_FACTOR times over for
+   GRIND_STEPS steps in a row; and when the limit is reached. */
+static int step_budget(dep_run *run, double h)
+{
+    const dep_rk_step *rk = run->outcome.rk;
+    const dep_state *s = &run->outcome.state;
+    double limit = run->settings.max_steps > 0 ? run->settings.max_steps : DEP_MAX_STEPS;
+    double taken = (double)run->tally.accepted, span = run->settings.t_end - s->t;
+    double left = span / h;
+    if (rk->stiffness > STIFF_BOUND) {
+        run->stiff_steps++;
+        run->free_steps = 0;
+    } else if (++run->free_steps >= 6) {
+        run->stiff_steps = 0;
+    }
+    run->grind_steps = taken + left > GRIND_FACTOR * limit ? run->grind_steps + 1 : 0;
+    int stiff = run->stiff_steps >= STIFF_STEPS && taken + left > limit;
+    if (!stiff && run->grind_steps < GRIND_STEPS && !(taken >= limit && span > run->h_min)) {
+        return DEP_OK;
+    }
+    char what[512], hint[300];
+    if (stiff) {
+        double rate = rk->stiffness / h;
+        snprintf(what, sizeof what, "the model is stiff here: a mode of rate about %.3g 1/s "
+                 "(time scale %.3g s), moving %s most, holds the explicit step at %.3g s; the "
+                 "%.4g s left would take about %.3g more steps, over max_steps = %.0f", rate,
+                 1.0 / rate, moving_most(run, rk->mode + run->nq), h, span, left, limit);
+        snprintf(hint, sizeof hint, "soften what moves it (a hinge or latch stiffness, a "
+                 "beam's EA or EI, or fewer beam elements), or raise max_steps to run it as it "
+                 "is");
+    } else if (run->grind_steps >= GRIND_STEPS) {
+        snprintf(what, sizeof what, "the step has been about %.3g s for %d steps, with %s "
+                 "moving most: the %.4g s left would take about %.3g more steps, over "
+                 "max_steps = %.0f", h, run->grind_steps, moving_most(run, s->qd), span, left,
+                 limit);
+        snprintf(hint, sizeof hint, "a motion this fast needs steps this small; check the "
+                 "model's stiffnesses and initial rates, shorten t_end, or raise max_steps");
+    } else {
+        snprintf(what, sizeof what, "max_steps = %.0f steps taken, with %.4g s left at steps "
+                 "of about %.3g s (%s moving most)", limit, span, h, moving_most(run, s->qd));
+        snprintf(hint, sizeof hint, "raise max_steps, or shorten t_end");
+    }
+    return dep_solver_error(run->error, 1, s->t, "step size", NULL, NULL, 0, 0.0, what, hint);
+}
+
 /* One accepted step from run->state into run->outcome; *h: in the size to try, out the next. */
 static int advance(dep_run *run, double *h)
 {
@@ -223,8 +291,9 @@ static int advance(dep_run *run, double *h)
             dep_run_attach_prior(run, &run->outcome);
             run->err_previous = dep_step_error(&errors);
             run->h_cap = run->h_cap < 1e300 ? run->h_cap * CAP_RELAX : INFINITY;
+            double taken = *h;
             *h *= fmin(fac, dep_convergence_factor(&run->outcome.reports[0]));
-            return DEP_OK;
+            return step_budget(run, taken);
         }
         run->tally.rejected++;
         *h *= fac;
@@ -242,7 +311,7 @@ static int advance(dep_run *run, double *h)
 
 dep_settings dep_default_settings(const dep_model *model)
 {
-    dep_settings settings = {model->t_end, model->dt_out, model->tol, 1, NULL, NULL};
+    dep_settings settings = {model->t_end, model->dt_out, model->tol, 1, NULL, NULL, 0.0};
     return settings;
 }
 

@@ -1,6 +1,7 @@
 /* main.c: the standalone program of a C target folder (docs/c-target.md).
  *
- *     ./MODEL [--set NAME=VALUE]... [--t-end T] [--dt-out DT] [--tol TOL] [-o out.csv]
+ *     ./MODEL [--set NAME=VALUE]... [--t-end T] [--dt-out DT] [--tol TOL] [--max-steps N]
+ *             [-o out.csv]
  *     ./MODEL --list          parameters, their SI units and defaults
  *
  * Values are plain numbers in SI units (m, kg, s, rad, N*m, ...); units are not parsed here
@@ -37,7 +38,8 @@ static int usage_error(const char *format, const char *a, const char *b)
 
 static void print_help(void)
 {
-    printf("usage: %s [--set NAME=VALUE]... [--t-end T] [--dt-out DT] [--tol TOL] [-o CSV]\n"
+    printf("usage: %s [--set NAME=VALUE]... [--t-end T] [--dt-out DT] [--tol TOL]\n"
+           "       [--max-steps N] [-o CSV]\n"
            "       %s --list\n\n"
            "Simulate %s (%s) with the depsim C integrator.\n\n"
            "  --set NAME=VALUE  set a parameter, a plain number in SI units (no unit text);\n"
@@ -45,11 +47,13 @@ static void print_help(void)
            "  --t-end T         end time, s (default %.17g)\n"
            "  --dt-out DT       output interval, s (default %.17g)\n"
            "  --tol TOL         integration tolerance (default %.17g)\n"
+           "  --max-steps N     the most steps a run may take (default %.0f); a stiff run\n"
+           "                    that would need more stops at once\n"
            "  -o, --out CSV     write the outputs to CSV (else to stdout)\n"
            "  --list            list the parameters and exit\n\n"
            "Exit codes: 0 ok, 1 failed to write or out of memory, 2 usage error, 3 solver "
            "failure.\n", program, program, depsim_model.name, depsim_model.description,
-           depsim_model.t_end, depsim_model.dt_out, depsim_model.tol);
+           depsim_model.t_end, depsim_model.dt_out, depsim_model.tol, DEP_MAX_STEPS);
 }
 
 static void print_parameters(void)
@@ -196,6 +200,8 @@ static int parse_arguments(int argc, char **argv, options *o)
             status = positive("--dt-out", value, &o->settings.dt_out);
         } else if ((value = option_value(argc, argv, &i, "--tol", &missing)) != NULL) {
             status = positive("--tol", value, &o->settings.tol);
+        } else if ((value = option_value(argc, argv, &i, "--max-steps", &missing)) != NULL) {
+            status = positive("--max-steps", value, &o->settings.max_steps);
         } else if ((value = option_value(argc, argv, &i, "--out", &missing)) != NULL
                    || (value = option_value(argc, argv, &i, "-o", &missing)) != NULL) {
             o->out = value;

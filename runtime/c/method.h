@@ -56,6 +56,10 @@ typedef struct dep_rk_step {
     double t0, h;
     const double *y0;
     double *y1, *error, *K; /* n, n, 7 x n */
+    /* Hairer's stiffness indicator h |lambda| ~ h |K7 - K6| / |y1 - y6| (it nears 3.3, the
+       stability bound, where a stiff mode holds the step down) and y1 - y6, that mode's
+       direction (n). */
+    double stiffness, *mode;
 } dep_rk_step;
 
 int dep_rk_init(dep_rk_step *rk, int n, dep_arena *arena);

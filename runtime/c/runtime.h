@@ -51,6 +51,7 @@ typedef struct dep_run {
     double *dense_J, *dense_lam;
     double *tangent, *normal; /* ny, 2 capacity + 2 nq: the step error's tangential part */
     double err_previous;      /* the last accepted step's error (the PI step control) */
+    int stiff_steps, free_steps, grind_steps; /* step_budget's counts */
     dep_active_rows state_rows, dense_rows;
     dep_event_record *records;
     int n_records, records_capacity;

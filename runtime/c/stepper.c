@@ -206,6 +206,8 @@ static void copy_base(const dep_stepper *stepper, dep_rk_step *to)
     memcpy(to->y1, stepper->base.y1, ny * sizeof(double));
     memcpy(to->error, stepper->base.error, ny * sizeof(double));
     memcpy(to->K, stepper->base.K, 7 * ny * sizeof(double));
+    memcpy(to->mode, stepper->base.mode, ny * sizeof(double));
+    to->stiffness = stepper->base.stiffness;
 }
 
 /* The base trajectory's end moved to lambda_{i+1} = lam1 by the frozen-Phi_q effect of the

@@ -53,7 +53,7 @@ module = (load_folder(compile_c(model, folder)) if target == "c"
           else load_generated(compile_numpy(model, folder)))
 print("started", flush=True)
 try:
-    simulate(module, t_end=1e6, tol=1e-12, dt_out=100.0)  # hours of work
+    simulate(module, t_end=1e6, tol=1e-12, dt_out=100.0, max_steps=1e12)  # hours of work
     print("completed")
 except KeyboardInterrupt:
     print("interrupted")

@@ -1,0 +1,84 @@
+"""Runs that would grind stop early with a SolverError that says why (docs/method.md, 6):
+a stiff mode at the explicit method's stability bound, a motion too fast for the time asked,
+and the max_steps limit itself."""
+
+import pytest
+
+from depsim.runtime import SolverError, simulate
+
+DOUBLE = """model stiff_pair "a double pendulum whose second hinge is stiff and heavily damped"
+gravity = (0, -9.81) m/s^2
+bar upper {{ length = 1 m; mass = 2 kg; inertia = 2 kg*m^2/12 }}
+bar lower {{ length = 1 m; mass = 2 kg; inertia = 2 kg*m^2/12 }}
+hinge h1 joins ground.origin to upper.a {{ }}
+hinge h2 joins upper.b to lower.a {{ stiffness = {k} N*m/rad; damping = {c} N*m*s/rad }}
+initial {{ h1 = 30 deg }}
+simulate {{ t_end = {t_end} s; tol = 1e-8; dt_out = 0.01 s }}
+output theta1 = h1
+"""
+
+SPRING = """model fast "a bar on an absurdly stiff hinge spring, released 10 degrees out"
+bar rod { length = 1 m; mass = 2 kg; inertia = 2 kg*m^2/12 }
+hinge pivot joins ground.origin to rod.a { stiffness = 1e16 N*m/rad }
+initial { pivot = 10 deg }
+simulate { t_end = 0.1 s; tol = 1e-8; dt_out = 0.01 s }
+output theta = pivot
+"""
+
+
+@pytest.fixture(scope="module")
+def build(tmp_path_factory):
+    import depsim.codegen as codegen
+    import depsim.dsl as dsl
+    folder = tmp_path_factory.mktemp("budget")
+
+    def get(text):
+        source = folder / f"m{len(list(folder.glob('*.dep')))}.dep"
+        source.write_text(text)
+        return codegen.load_generated(codegen.compile_numpy(dsl.load_model(source),
+                                                            folder / source.stem))
+
+    return get
+
+
+def test_a_stiff_mode_stops_the_run_at_once_naming_its_rate(build):
+    # the relative rotation's damping acts on both bodies' rotation about their centres:
+    # |lambda| = c (1/J_upper + 1/J_lower) = 1e5 * 12 = 1.2e6 1/s, far faster than the swing
+    module = build(DOUBLE.format(k=1e6, c=1e5, t_end=10))
+    with pytest.raises(SolverError) as caught:
+        simulate(module)
+    error = caught.value
+    assert error.stage == "step size" and error.t < 1e-3  # within the first ~50 steps
+    text = str(error)
+    assert "the model is stiff here" in text and "over max_steps = 1000000" in text
+    rate = float(text.split("rate about ")[1].split(" ")[0])
+    assert rate == pytest.approx(1.2e6, rel=0.1)
+    assert "phi most" in text  # the mode turns the bodies (upper.phi or lower.phi)
+    assert "soften what moves it" in text and "raise max_steps" in text
+
+
+def test_the_same_stiff_model_runs_when_its_steps_fit(build):
+    module = build(DOUBLE.format(k=1e6, c=1e5, t_end=10))
+    result = simulate(module, t_end=0.02)  # about 1e4 steps: within the default
+    assert result.times[-1] == 0.02
+    with pytest.raises(SolverError, match="stiff here"):
+        simulate(module, t_end=0.02, max_steps=5000)
+
+
+def test_a_motion_too_fast_for_the_time_asked_stops_after_a_thousand_steps(build):
+    module = build(SPRING)
+    with pytest.raises(SolverError) as caught:
+        simulate(module)
+    text = str(caught.value)
+    assert "for 1000 steps" in text and "rod." in text  # the spring swings the rod
+    steps_left = float(text.split("about ")[2].split(" ")[0])
+    assert steps_left > 100 * 1e6
+    assert caught.value.t < 1e-5
+
+
+def test_max_steps_is_a_hard_limit(build):
+    module = build(DOUBLE.format(k=1e3, c=0, t_end=2))
+    with pytest.raises(SolverError, match=r"max_steps = 50 steps taken, with [0-9.]+ s left"):
+        simulate(module, max_steps=50)
+    with pytest.raises(ValueError, match="max_steps must be"):
+        simulate(module, max_steps=-1)
