@@ -1,7 +1,9 @@
 """The `depsim` command line.
 
 Exit codes: 0 ok, 1 model error, 2 usage error, 3 solver failure. Errors go to stderr, data
-to stdout; no traceback reaches the user for anything they caused.
+to stdout; no traceback reaches the user for anything they caused. Every output path is
+checked before anything runs, and a command writes all its output files or none
+(depsim.runtime.output).
 """
 
 from __future__ import annotations
@@ -32,28 +34,54 @@ def main(argv: list[str] | None = None) -> int:
         return code
 
 
+# (module, exception class, message prefix, exit code): everything the user can cause besides
+# model errors and files. The classes are looked up among the modules already imported (an
+# exception's class was imported to raise it): importing the stages to test an exception
+# against them made every failing `depsim check` pay for sympy.
+_OUTCOMES = (
+    ("depsim.codegen.errors", "CodegenError", "error", EXIT_MODEL),
+    ("depsim.errors", "UsageError", "error", EXIT_USAGE),
+    ("depsim.runtime.core", "CBuildError", "error", EXIT_USAGE),
+    ("depsim.runtime.sweep.spec", "SweepSpecError", "error", EXIT_USAGE),
+    ("depsim.runtime.sweep.storage", "CheckpointError", "error", EXIT_USAGE),
+    ("depsim.runtime.sweep.backends", "StudyError", "study stopped", EXIT_SOLVER),
+    ("depsim.runtime.errors", "SolverError", "solver failure", EXIT_SOLVER),
+)
+
+
 def _report(exc: Exception) -> int | None:
     """Print a user-facing error for `exc`; its exit code, or None for a bug."""
-    from depsim.codegen import CodegenError
-    from depsim.dsl import ModelError, format_diagnostics
-    from depsim.errors import UsageError
-    from depsim.runtime import SolverError
-    from depsim.runtime.core import CBuildError
-    from depsim.runtime.sweep import CheckpointError, StudyError, SweepSpecError
+    model_error = _imported("depsim.dsl.errors", "ModelError")
+    if model_error is not None and isinstance(exc, model_error):
+        from depsim.dsl import format_diagnostics
 
-    if isinstance(exc, ModelError):
         print(format_diagnostics(exc.diagnostics, exc.source), file=sys.stderr, end="")
         return EXIT_MODEL
-    # (exception types, message prefix, exit code): everything else the user can cause
-    outcomes = [((CodegenError,), "error", EXIT_MODEL),
-                ((UsageError, CBuildError, SweepSpecError, CheckpointError), "error", EXIT_USAGE),
-                ((StudyError,), "study stopped", EXIT_SOLVER),
-                ((SolverError,), "solver failure", EXIT_SOLVER)]
-    for types, prefix, code in outcomes:
-        if isinstance(exc, types):
+    for module, name, prefix, code in _OUTCOMES:
+        kind = _imported(module, name)
+        if kind is not None and isinstance(exc, kind):
             print(f"depsim: {prefix}: {exc}", file=sys.stderr)
             return code
+    if isinstance(exc, OSError):  # a file that cannot be written or read (OutputError too)
+        print(f"depsim: error: {_os_message(exc)}", file=sys.stderr)
+        return EXIT_USAGE
     return None
+
+
+def _report_as_is(exc: Exception) -> bool:
+    """Whether `exc` is one of the _OUTCOMES (reported with its own prefix and exit code)."""
+    kinds = [_imported(module, name) for module, name, _, _ in _OUTCOMES]
+    return isinstance(exc, tuple(kind for kind in kinds if kind is not None))
+
+
+def _imported(module: str, name: str) -> type | None:
+    return getattr(sys.modules.get(module), name, None)
+
+
+def _os_message(exc: OSError) -> str:
+    if exc.strerror and exc.filename is not None:
+        return f"{exc.filename}: {exc.strerror}"
+    return str(exc)
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -84,11 +112,14 @@ def _parser() -> argparse.ArgumentParser:
                      help="override a parameter, units allowed (h1.preload=1.5N*m); repeatable")
     run.add_argument("--t-end", type=_positive_float, metavar="T", help="end time (s)")
     run.add_argument("--dt-out", type=_positive_float, metavar="DT", help="output interval (s)")
-    run.add_argument("--tol", type=_positive_float, metavar="TOL", help="integration tolerance")
+    run.add_argument("--tol", type=_tolerance, metavar="TOL",
+                     help="integration tolerance, between 0 and 1")
     run.add_argument("-o", "--out", metavar="CSV", help="write outputs to a CSV file")
     run.add_argument("--summary", metavar="JSON", help="write a JSON run summary")
-    run.add_argument("--plot", metavar="PNG", help="plot every output against time")
-    run.add_argument("--animate", metavar="GIF", help="animate the mechanism moving")
+    run.add_argument("--plot", metavar="PNG", help="plot every output against time (.png, "
+                                                   ".pdf, .svg, ...: the extension decides)")
+    run.add_argument("--animate", metavar="GIF", help="animate the mechanism moving (.gif; "
+                                                      ".mp4 with ffmpeg installed)")
     _add_elements(run)
     run.set_defaults(command=_run)
 
@@ -107,11 +138,13 @@ def _parser() -> argparse.ArgumentParser:
     sweep.add_argument("--scheduler", metavar="URL", help="a Dask scheduler, tcp://HOST:PORT")
     sweep.add_argument("--t-end", type=_positive_float, metavar="T", help="end time (s)")
     sweep.add_argument("--dt-out", type=_positive_float, metavar="DT", help="output interval (s)")
-    sweep.add_argument("--tol", type=_positive_float, metavar="TOL", help="integration tolerance")
+    sweep.add_argument("--tol", type=_tolerance, metavar="TOL",
+                       help="integration tolerance, between 0 and 1")
     sweep.add_argument("--time-grid", type=_positive_int, metavar="N",
                        help="also store every output at N times")
     sweep.add_argument("-o", "--out", metavar="NC", help="NetCDF file (default MODEL-sweep.nc)")
-    sweep.add_argument("--plot", metavar="PNG", help="histograms and scatter plots")
+    sweep.add_argument("--plot", metavar="PNG", help="histograms and scatter plots (.png, "
+                                                     ".pdf, .svg, ...)")
     sweep.add_argument("--resume", action="store_true", help="complete an interrupted study")
     _add_elements(sweep)
     sweep.set_defaults(command=_sweep)
@@ -133,6 +166,13 @@ def _positive_float(text: str) -> float:
     return value
 
 
+def _tolerance(text: str) -> float:
+    value = _positive_float(text)
+    if not value < 1:
+        raise argparse.ArgumentTypeError(f"'{text}' must lie between 0 and 1 (e.g. 1e-8)")
+    return value
+
+
 def _positive_int(text: str) -> int:
     if not text.strip().isdigit() or int(text) < 1:
         raise argparse.ArgumentTypeError(f"'{text}' must be a positive integer")
@@ -145,14 +185,15 @@ def _natural_int(text: str) -> int:
     return int(text)
 
 
-def _elements(text: str) -> dict[str, int]:
+def _elements(text: str) -> dict[str, str]:
+    """BEAM=N,... as text: the counts are checked by Model.with_elements (ASCII digits,
+    the language's limits)."""
     counts = {}
     for item in filter(None, text.split(",")):
         name, sep, count = item.partition("=")
-        if not sep or not count.strip().isdigit() or int(count) < 1:
-            raise argparse.ArgumentTypeError(
-                f"'{item}' is not BEAM=N with N a positive integer (e.g. link1=8)")
-        counts[name.strip()] = int(count)
+        if not sep or not name.strip() or not count.strip():
+            raise argparse.ArgumentTypeError(f"'{item}' is not BEAM=N (e.g. link1=8)")
+        counts[name.strip()] = count.strip()
     return counts
 
 
@@ -177,10 +218,10 @@ def _load(args):
 
 
 def _print_warnings(model) -> None:
-    from depsim.dsl import format_diagnostics
+    from depsim.dsl import format_diagnostics, read_model_text
 
     if model.ir.warnings:
-        source = Path(model.path).read_text(encoding="utf-8")
+        source = read_model_text(model.path)
         print(format_diagnostics(model.ir.warnings, source), file=sys.stderr, end="")
 
 
@@ -193,56 +234,136 @@ def _check(args) -> int:
 
 
 def _compile(args) -> int:
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise _usage(f"-o {args.out}: it exists and is not a folder; compile writes a folder "
+                     "of files (give a new or an existing folder)")
     model = _load(args)
     if args.target == "c":
         from depsim.codegen import compile_c
         from depsim.codegen.c_emit import c_program_name
 
-        folder = compile_c(model.ir, Path(args.out))
+        folder = compile_c(model.ir, out)
         print(f"wrote {folder}: build with `make -C {folder}`, "
               f"run `{folder}/{c_program_name(model.ir)} --help`")
         return EXIT_OK
     from depsim.codegen import compile_numpy
 
-    print(f"wrote {compile_numpy(model.ir, Path(args.out))}")
+    print(f"wrote {compile_numpy(model.ir, out)}")
     return EXIT_OK
 
 
 def _run(args) -> int:
-    model = _load(args)
+    from depsim.runtime.animation import check_animation_path
+    from depsim.runtime.output import all_or_none, check_output
+    from depsim.runtime.plot import PLOT_FORMATS
+
+    _check_outputs(args.model, [("-o", args.out, check_output),
+                                ("--summary", args.summary, check_output),
+                                ("--plot", args.plot, lambda p: check_output(p, PLOT_FORMATS)),
+                                ("--animate", args.animate, check_animation_path)])
     settings = _settings(args.set)
+    model = _load(args)
+    _check_output_times(model, args)
     sim = model.compile(target=args.target)
-    result = sim.run(set=settings, t_end=args.t_end, dt_out=args.dt_out, tol=args.tol,
-                     progress=True)
-    if args.out:
-        result.to_csv(args.out)
-    if args.summary:
-        result.to_json(args.summary)
-    if args.plot:
-        from depsim.runtime.plot import plot_outputs
-        plot_outputs(result, args.plot)
-    if args.animate:
-        from depsim.runtime import animate
-        animate(result, sim.module, args.animate)
+    try:
+        result = sim.run(set=settings, t_end=args.t_end, dt_out=args.dt_out, tol=args.tol,
+                         progress=True)
+    except ValueError as exc:  # a setting the runtime refuses (simulate's documented ValueError)
+        raise _usage(str(exc)) from exc
+    with all_or_none():
+        if args.out:
+            result.to_csv(args.out)
+        if args.summary:
+            result.to_json(args.summary)
+        if args.plot:
+            from depsim.runtime.plot import plot_outputs
+            plot_outputs(result, args.plot)
+        if args.animate:
+            from depsim.runtime import animate
+            animate(result, sim.module, args.animate)
     print(result.report())
     return EXIT_OK
 
 
 def _sweep(args) -> int:
-    import depsim
+    from depsim.runtime.output import all_or_none, check_output
+    from depsim.runtime.plot import PLOT_FORMATS
     from depsim.runtime.sweep import plot_study, summarize
+    from depsim.runtime.sweep.storage import check_store, partial_path
 
-    sim = _load(args).compile(target=args.target)
     out = args.out or f"{Path(args.model).stem}-sweep.nc"
-    study = depsim.sweep(sim, grid=args.grid, samples=args.sample, runs=args.runs,
-                         seed=args.seed, t_end=args.t_end, dt_out=args.dt_out, tol=args.tol,
-                         time_grid=args.time_grid, workers=args.workers,
-                         scheduler=args.scheduler, out=out, resume=args.resume)
-    print(summarize(study))
-    if args.plot:
-        plot_study(study, args.plot)
+    _check_outputs(args.model, [("-o", out, check_store),
+                                ("--plot", args.plot, lambda p: check_output(p, PLOT_FORMATS))])
+    model = _load(args)
+    _check_output_times(model, args)
+    sim = model.compile(target=args.target)
+    try:
+        with all_or_none():  # the study file and the plot, or neither (the runs stay kept)
+            study = _study(sim, args, out)
+            print(summarize(study))
+            if args.plot:
+                plot_study(study, args.plot)
+    except OSError as exc:
+        partial = partial_path(out)
+        if partial.exists():
+            raise _usage(f"{_os_message(exc)}; the finished runs are kept in {partial}: run "
+                         "again with --resume to write the study without running them "
+                         "again") from exc
+        raise
     print(f"wrote {out}")
     return EXIT_OK
+
+
+def _study(sim, args, out: str):
+    import depsim
+
+    try:
+        return depsim.sweep(sim, grid=args.grid, samples=args.sample, runs=args.runs,
+                            seed=args.seed, t_end=args.t_end, dt_out=args.dt_out, tol=args.tol,
+                            time_grid=args.time_grid, workers=args.workers,
+                            scheduler=args.scheduler, out=out, resume=args.resume)
+    except ValueError as exc:  # a SweepSpecError is reported as it is; another: a setting
+        if _report_as_is(exc):
+            raise
+        raise _usage(str(exc)) from exc
+
+
+def _check_outputs(model: str, outputs) -> None:
+    """Before anything runs: each output (option, path or None, check(path)) can be written
+    (the check raises OutputError if not), and no two outputs, nor an output and the model,
+    are the same file."""
+    seen = {os.path.realpath(model): "the model file"}
+    for option, path, check in outputs:
+        if path is None:
+            continue
+        check(path)
+        key = os.path.realpath(path)
+        if key.startswith("/proc/") or (os.path.exists(key) and not os.path.isfile(key)):
+            continue  # a pipe, a device, a descriptor (/dev/stdout): written in place
+        if key in seen:
+            raise _usage(f"{option} {path}: that is {seen[key]}; give another file")
+        seen[key] = f"the file of {option}"
+
+
+def _check_output_times(model, args) -> None:
+    """UsageError when --t-end / --dt-out (or the model's values) ask for more output times
+    than a run may record (depsim.runtime.results.MAX_OUTPUT_ROWS)."""
+    from depsim.runtime.results import check_output_rows
+
+    settings = model.ir.simulation
+    t_end = args.t_end if args.t_end is not None else settings.t_end
+    dt_out = args.dt_out if args.dt_out is not None else settings.dt_out
+    try:
+        check_output_rows(t_end, dt_out)
+    except ValueError as exc:
+        raise _usage(f"--t-end / --dt-out: {exc}") from None
+
+
+def _usage(message: str):
+    from depsim.errors import UsageError
+
+    return UsageError(message)
 
 
 if __name__ == "__main__":

@@ -1,4 +1,5 @@
-"""`animate`: the mechanism moving, as a GIF (matplotlib animation, PillowWriter).
+"""`animate`: the mechanism moving, as a GIF (matplotlib animation, PillowWriter) or, when
+ffmpeg is installed, an MP4 (FFMpegWriter): the file's extension chooses (ANIMATION_FORMATS).
 
 Members are drawn as lines, beams as node polylines, hinges as dots: a black circle while
 free, a red square once its latch has engaged, an orange diamond while a stop or stick-slip
@@ -22,19 +23,45 @@ from pathlib import Path
 
 import numpy as np
 
+from .output import OutputError, atomic_path, check_format, check_output
+
 MAX_FRAMES = 200
 DPI = 80
+ANIMATION_FORMATS = ("gif", "mp4")  # mp4: only where matplotlib finds ffmpeg
+
+
+def check_animation_path(path: str | os.PathLike) -> None:
+    """OutputError unless an animation can be written to `path`: a writable place
+    (`output.check_output`) with a known extension, and ffmpeg installed for an MP4."""
+    check_output(path, ANIMATION_FORMATS)
+    _writer(path, fps=1.0)
+
+
+def _writer(path: str | os.PathLike, fps: float):
+    """The matplotlib writer for the format of `path`; OutputError if it cannot be had."""
+    check_format(path, ANIMATION_FORMATS)
+    if Path(path).suffix.lower() == ".gif":
+        from matplotlib.animation import PillowWriter
+
+        return PillowWriter(fps=fps)
+    from matplotlib.animation import FFMpegWriter, writers
+
+    if not writers.is_available("ffmpeg"):
+        raise OutputError(f"cannot write {path}: an MP4 needs ffmpeg, which is not installed "
+                          "(or not on PATH); install it, or write a .gif")
+    return FFMpegWriter(fps=fps)
 
 
 def animate(result, module, path, fps: float = 20.0, max_frames: int = MAX_FRAMES,
             params=None) -> int:
-    """Write a GIF of `result` (a Result of `module`) to `path`; returns the frame count.
+    """Write an animation of `result` (a Result of `module`) to `path`, a GIF or an MP4 by its
+    extension (OutputError for another, or for an MP4 without ffmpeg); returns the frame count.
 
     Frames are the output times, thinned evenly to at most `max_frames` (the last always
-    included); `fps` frames per second of GIF. params: the module parameters (default: the
-    run's). The file is written beside `path` and renamed, so a failure leaves no partial GIF.
+    included); `fps` frames per second. params: the module parameters (default: the run's).
+    The file is written through `output.atomic_path`, so a failure leaves no partial file.
     """
-    from matplotlib.animation import PillowWriter
+    writer = _writer(path, fps)
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -71,18 +98,10 @@ def animate(result, module, path, fps: float = 20.0, max_frames: int = MAX_FRAME
         title.set_text(f"{result.model}   t = {result.times[frames[k]]:.2f} s")
         return [*lines, *markers.values(), title]
 
-    path = Path(path)
-    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix or '.gif'}")
-    writer = PillowWriter(fps=fps)
-    try:
-        with writer.saving(figure, tmp, dpi=DPI):
-            for k in range(len(frames)):  # one draw per frame (FuncAnimation draws twice)
-                draw(k)
-                writer.grab_frame()
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+    with atomic_path(path) as tmp, writer.saving(figure, tmp, dpi=DPI):
+        for k in range(len(frames)):  # one draw per frame (FuncAnimation draws twice)
+            draw(k)
+            writer.grab_frame()
     return len(frames)
 
 

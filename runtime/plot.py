@@ -1,20 +1,35 @@
-"""`plot_outputs`: every output of a Result against time, one panel each, as a PNG."""
+"""`plot_outputs`: every output of a Result against time, one panel each, as an image in the
+format its file extension names (PNG, PDF, SVG, ...: PLOT_FORMATS)."""
 
 from __future__ import annotations
 
+import os
+from pathlib import Path
+
 import numpy as np
 
-from .results import atomic_path
+from .output import atomic_path, check_format
+
+# What matplotlib's Agg canvas writes without anything else installed (not pgf: it needs LaTeX)
+PLOT_FORMATS = ("png", "pdf", "svg", "svgz", "eps", "ps", "jpg", "jpeg", "tif", "tiff", "webp")
+
+
+def plot_format(path: str | os.PathLike) -> str:
+    """The format `path` asks for by its extension; OutputError when not one of PLOT_FORMATS."""
+    check_format(path, PLOT_FORMATS)
+    return Path(path).suffix.lower().lstrip(".")
 
 
 def plot_outputs(result, path) -> None:
-    """Write a PNG with one panel per output vs time (s), titled with the model name.
+    """Write an image with one panel per output vs time (s), titled with the model name, in
+    the format of the extension of `path` (PLOT_FORMATS; OutputError for another).
 
     Outputs in "rad" are drawn in degrees, "rad/s" in deg/s; latch events ("<h>.latch") are
     marked by red vertical lines labelled with the hinge, other events by grey ones. Renders
     with matplotlib's Agg canvas (no display, no pyplot state); the file is written
     atomically.
     """
+    image_format = plot_format(path)
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -40,7 +55,7 @@ def plot_outputs(result, path) -> None:
     axes[-1].set_xlabel("t [s]")
     figure.suptitle(result.model)
     with atomic_path(path) as tmp:
-        figure.savefig(tmp, format="png", dpi=100)
+        figure.savefig(tmp, format=image_format, dpi=100)
 
 
 def _display(values: np.ndarray, unit: str) -> tuple[np.ndarray, str]:

@@ -2,23 +2,43 @@
 
 Arrays have one row per output time (n,). Multipliers have one column per constraint row that
 was active at any time (`constraint_names`), NaN where the row was not active. Files are
-written atomically (a temporary file in the same folder, then a rename), so a failure never
-leaves a half-written file.
+written with `output.atomic_path` (a temporary file in the same folder, then a rename), so a
+failure never leaves a half-written file.
 """
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import json
-import os
-import tempfile
+import math
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
 from .loads import Deployment, HingeLoad, PeakLoad, hinge_forces
+from .output import atomic_path
+
+# The most output times a run may record: each costs a row of every array of the Result
+# (t, q, qd, lambda, outputs, energies, ...), so t_end / dt_out = 1e10 would ask for tens of
+# GiB. `check_output_rows` says so before a run starts.
+MAX_OUTPUT_ROWS = 10_000_000
+
+
+def output_rows(t_end: float, dt_out: float) -> int:
+    """How many output times a run records: 0, dt_out, 2 dt_out, ... up to t_end, and t_end
+    itself (counted as the integrator core does, runtime/c/recording.c). t_end, dt_out > 0, s."""
+    count = math.floor(t_end / dt_out * (1 + 1e-12))
+    return count + 1 + (t_end - count * dt_out > 1e-9 * dt_out)
+
+
+def check_output_rows(t_end: float, dt_out: float) -> None:
+    """ValueError, saying what to change, when t_end / dt_out asks for more than
+    MAX_OUTPUT_ROWS output times."""
+    rows = output_rows(t_end, dt_out)
+    if rows > MAX_OUTPUT_ROWS:
+        raise ValueError(f"t_end = {t_end:g} s with dt_out = {dt_out:g} s asks for {rows:,} "
+                         f"output times, more than the limit of {MAX_OUTPUT_ROWS:,}: use "
+                         f"dt_out >= {t_end / (MAX_OUTPUT_ROWS - 2):.3g} s or a shorter t_end")
 
 
 @dataclass(frozen=True, slots=True)
@@ -187,21 +207,3 @@ def _write_atomic(path, text: str) -> None:
     with atomic_path(path) as tmp:
         with open(tmp, "w", encoding="utf-8", newline="\n") as handle:
             handle.write(text)
-
-
-@contextlib.contextmanager
-def atomic_path(path):
-    """Yield a temporary path beside `path`; on success it replaces `path` (with the usual
-    permissions, 0666 less the umask), on failure it is removed and `path` is left alone."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    os.close(fd)
-    try:
-        yield tmp
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)
-        os.replace(tmp, path)
-    except BaseException:
-        os.unlink(tmp)
-        raise

@@ -1,5 +1,6 @@
 """Plot a study: one row per metric, its histogram and its scatter against the varied
-parameters that drive it most. Written with matplotlib's Agg canvas (no display needed)."""
+parameters that drive it most. Written with matplotlib's Agg canvas (no display needed), in the
+format the file's extension names (PNG, PDF, SVG, ...: depsim.runtime.plot.PLOT_FORMATS)."""
 
 from __future__ import annotations
 
@@ -8,6 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..output import atomic_path
+from ..plot import plot_format
 from .summary import drivers, metric_names, varied_parameters
 
 __all__ = ["plot_study", "plotted_metrics"]
@@ -33,7 +36,10 @@ def plotted_metrics(ds, limit: int = 8) -> list[str]:
 
 def plot_study(ds, path: str | os.PathLike, metrics: list[str] | None = None,
                max_parameters: int = 3, dpi: int = 100) -> Path:
-    """Write a PNG: for each metric a histogram and scatter plots against varied parameters."""
+    """Write an image (its format from the extension of `path`, OutputError for an unknown
+    one): for each metric a histogram and scatter plots against varied parameters. The file
+    is written through `output.atomic_path` (no half-written file, ever)."""
+    image_format = plot_format(path)
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -77,6 +83,6 @@ def plot_study(ds, path: str | os.PathLike, metrics: list[str] | None = None,
             ax.set_xlabel(pname, fontsize=8)
             ax.set_ylabel(name, fontsize=8)
             ax.tick_params(labelsize=7)
-    path = Path(path)
-    fig.savefig(path, format="png")
-    return path
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format=image_format)
+    return Path(path)

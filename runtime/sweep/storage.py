@@ -18,8 +18,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ..output import OutputError, atomic_path, check_output, writes_in_place
+
 __all__ = ["ENGINE", "Checkpoint", "CheckpointError", "fingerprint", "partial_path", "stored_seed",
-           "build_dataset", "write_dataset", "open_study", "metric_order"]
+           "build_dataset", "write_dataset", "open_study", "metric_order", "check_store"]
 
 ENGINE = "h5netcdf"
 FORMAT_VERSION = 1
@@ -32,6 +34,16 @@ class CheckpointError(RuntimeError):
 def partial_path(store: str | os.PathLike) -> Path:
     store = Path(store)
     return store.with_name(store.name + ".partial")
+
+
+def check_store(store: str | os.PathLike) -> None:
+    """OutputError unless a study file can be written to `store` and its checkpoint beside
+    it (`output.check_output`); a study is a file, never a pipe or a device."""
+    check_output(store)
+    if writes_in_place(store):
+        raise OutputError(f"cannot write {store}: a study is written to a file, with its "
+                          "checkpoint beside it; not to a pipe or a device")
+    check_output(partial_path(store))
 
 
 def fingerprint(module_sha256: str, parameter_names: Sequence[str], matrix: np.ndarray,
@@ -227,15 +239,11 @@ def _metric_attrs(name: str) -> dict:
 
 
 def write_dataset(ds, path: str | os.PathLike) -> Path:
-    """Write atomically (temporary file, then rename) with the pinned engine."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
+    """Write with the pinned engine through `output.atomic_path` (a temporary file, then a
+    rename: never a half-written file)."""
+    with atomic_path(path) as tmp:
         ds.to_netcdf(tmp, engine=ENGINE)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
-    return path
+    return Path(path)
 
 
 def open_study(path: str | os.PathLike):

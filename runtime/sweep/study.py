@@ -6,6 +6,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import importlib.util
+import math
 import os
 import sys
 import time
@@ -15,12 +16,14 @@ from types import ModuleType
 
 import numpy as np
 
+from ..output import when_written
+from ..results import MAX_OUTPUT_ROWS, check_output_rows
 from . import backends
 from .metrics import Metric, static_metric_names
 from .progress import ProgressBar, StudyProgress
 from .spec import Design, SweepSpecError, make_design
-from .storage import (Checkpoint, CheckpointError, build_dataset, fingerprint, open_study,
-                      partial_path, stored_seed, write_dataset)
+from .storage import (Checkpoint, CheckpointError, build_dataset, check_store, fingerprint,
+                      open_study, partial_path, stored_seed, write_dataset)
 from .worker import ModuleRef, RunConfig, load_module
 
 __all__ = ["Study", "run_study", "sweep", "StudyError", "CheckpointError"]
@@ -66,8 +69,9 @@ def _time_grid(study: Study, module: ModuleType) -> np.ndarray | None:
     if grid is None:
         return None
     if isinstance(grid, (int, np.integer)) and not isinstance(grid, bool):
-        if grid < 2:
-            raise SweepSpecError("time_grid: give at least 2 points")
+        if not 2 <= grid <= MAX_OUTPUT_ROWS:
+            raise SweepSpecError(f"time_grid: give from 2 to {MAX_OUTPUT_ROWS:,} points "
+                                 f"(got {grid:,})")
         t_end = study.t_end if study.t_end is not None else float(module.T_END)
         return np.linspace(0.0, t_end, int(grid))
     grid = np.asarray(grid, dtype=float).ravel()
@@ -107,16 +111,16 @@ def run_study(study: Study, *, workers: int | None = None, scheduler=None,
     if resume and store is None:
         raise SweepSpecError("resume needs the output file of the interrupted study "
                              "(store=..., -o FILE)")
+    if store is not None:  # before any work: a study that cannot be saved is not started
+        store = Path(store)
+        check_store(store)
     require_studies()
     plan = _plan(study)
     records: dict[int, dict] = {}
     checkpoint = None
     if store is not None:
-        store = Path(store)
         if resume and store.exists() and not partial_path(store).exists():
-            complete = _complete_study(store, plan.fingerprint)
-            if complete is not None:
-                return complete
+            return _complete_study(store, plan.fingerprint)
         checkpoint = Checkpoint(partial_path(store), plan.fingerprint, study.design.runs,
                                 study.design.seed)
         if resume:
@@ -128,7 +132,10 @@ def run_study(study: Study, *, workers: int | None = None, scheduler=None,
                        time_grid=plan.config.time_grid, attrs=plan.attrs)
     if store is not None:
         write_dataset(ds, store)
-        checkpoint.remove()
+        # the checkpoint goes once the file is in place (inside `output.all_or_none`, at the
+        # end of the block: if a later output fails, the runs stay resumable)
+        checkpoint.close()
+        when_written(checkpoint.remove)
     return ds
 
 
@@ -158,6 +165,7 @@ def _plan(study: Study) -> _Plan:
         raise ValueError(f"the run matrix has shape {design.matrix.shape}, "
                          f"expected (runs, {len(names)})")
     metrics = _check_metrics(study.metrics)
+    _check_settings(study, module)
     grid = _time_grid(study, module)
     config = RunConfig(t_end=study.t_end, dt_out=study.dt_out, tol=study.tol, metrics=metrics,
                        builtin=study.builtin_metrics, time_grid=grid, simulate=study.simulate)
@@ -167,6 +175,26 @@ def _plan(study: Study) -> _Plan:
     fp = fingerprint(ref.sha256, names, design.matrix, settings, static, grid)
     return _Plan(ref, design, config, static, tuple(getattr(module, "OUTPUTS", ())), fp,
                  _attributes(study, module, ref, fp))
+
+
+def _check_settings(study: Study, module: ModuleType) -> None:
+    """SweepSpecError for a t_end, dt_out or tol that every run would fail on (they are the
+    same for all runs): a study of failures is not started."""
+    def setting(value, name):
+        return float(value) if value is not None else getattr(module, name, None)
+
+    t_end, dt_out = setting(study.t_end, "T_END"), setting(study.dt_out, "DT_OUT")
+    tol = setting(study.tol, "TOL")
+    for name, value in (("t_end", t_end), ("dt_out", dt_out)):
+        if value is not None and not (math.isfinite(value) and value > 0):
+            raise SweepSpecError(f"{name} must be a positive number of seconds, got {value}")
+    if tol is not None and not 0 < tol < 1:
+        raise SweepSpecError(f"tol must lie between 0 and 1, got {tol}")
+    if t_end is not None and dt_out is not None:
+        try:
+            check_output_rows(t_end, dt_out)
+        except ValueError as exc:
+            raise SweepSpecError(str(exc)) from None
 
 
 def _attributes(study: Study, module: ModuleType, ref: ModuleRef, fp: str) -> dict:
@@ -197,12 +225,25 @@ def _attributes(study: Study, module: ModuleType, ref: ModuleRef, fp: str) -> di
 
 
 def _complete_study(store: Path, fp: str):
-    """The finished study in `store` when it is this one, else None."""
+    """The finished study in `store` (resume without a checkpoint); CheckpointError when the
+    file is not a readable study or holds another study: resuming refuses to rerun every run
+    over a file it cannot account for."""
     try:
         existing = open_study(store)
-    except Exception:
-        return None
-    return existing if existing.attrs.get("fingerprint") == fp else None
+    except Exception as exc:
+        raise CheckpointError(
+            f"{store} is not a readable study file (truncated?): {type(exc).__name__}: "
+            f"{str(exc).strip() or 'unreadable'}. There is no checkpoint "
+            f"{partial_path(store).name} to resume from either; nothing was run or changed: "
+            "delete the file, or run without resume (--resume) to start the study over"
+        ) from None
+    if existing.attrs.get("fingerprint") != fp:
+        raise CheckpointError(
+            f"{store} holds a different study (model, parameters, settings or metrics "
+            f"changed), and there is no checkpoint {partial_path(store).name} to resume from; "
+            "nothing was run or changed: run without resume (--resume) to replace it, or "
+            "write to another file")
+    return existing
 
 
 def _run_missing(plan: _Plan, records: dict, checkpoint, workers, scheduler, batch_size,

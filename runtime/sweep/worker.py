@@ -187,11 +187,12 @@ _STATE: dict[str, object] = {}
 
 
 def init_pool_worker(ref: ModuleRef, config_blob: bytes) -> None:
-    """ProcessPoolExecutor initializer: ignore Ctrl-C (the parent handles it), load the module
-    and the config once."""
+    """ProcessPoolExecutor initializer: die with the parent process, ignore Ctrl-C (the parent
+    handles it), load the module and the config once."""
     import pickle
     import signal
 
+    die_with_parent()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     _STATE["ref"] = ref
     _STATE["config"] = pickle.loads(config_blob)
@@ -201,3 +202,44 @@ def init_pool_worker(ref: ModuleRef, config_blob: bytes) -> None:
 def pool_run_batch(indices: Sequence[int], params: np.ndarray) -> list[dict]:
     """A batch in a pool worker (set up by `init_pool_worker`)."""
     return run_batch(_STATE["ref"], _STATE["config"], indices, params)
+
+
+PR_SET_PDEATHSIG = 1  # linux/prctl.h
+WATCH_PARENT_EVERY = 1.0  # s, where the kernel cannot be asked (not Linux)
+
+
+def die_with_parent() -> None:
+    """End this worker process when its parent (the study) ends, however it ends: a parent
+    killed with SIGKILL runs no cleanup, and its pool workers, blocked on a queue the parent
+    will never write, would otherwise live on (and with them multiprocessing's resource
+    tracker). Linux: the kernel sends SIGKILL at the parent's death (prctl PR_SET_PDEATHSIG);
+    elsewhere a daemon thread polls the parent's pid."""
+    import multiprocessing
+    import signal
+    import threading
+
+    parent = multiprocessing.parent_process()
+    if parent is None:  # not started by multiprocessing
+        return
+    if sys.platform.startswith("linux") and _prctl(PR_SET_PDEATHSIG, signal.SIGKILL):
+        if os.getppid() != parent.pid:  # the parent died before prctl took effect
+            os._exit(1)
+        return
+
+    def watch() -> None:
+        while os.getppid() == parent.pid:
+            time.sleep(WATCH_PARENT_EVERY)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="depsim-parent-watch", daemon=True).start()
+
+
+def _prctl(option: int, value: int) -> bool:
+    """prctl(2) through the C library; False when it cannot be called or fails."""
+    import ctypes
+
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)  # this process's symbols: the C library's
+        return libc.prctl(option, value, 0, 0, 0) == 0
+    except (OSError, AttributeError):
+        return False
