@@ -140,13 +140,18 @@ def c_comment(text: str) -> str:
 _IDENTIFIER = re.compile(r"[^A-Za-z0-9_]")
 
 
-RESERVED_STEMS = frozenset({"Makefile", "makefile", "GNUmakefile", "model", "depsim"})
+# Names a program of the C folder must not take, compared without case (a case-insensitive
+# file system): make's files, the Makefile's targets (templates/c/Makefile.j2: `make clean`
+# must not be the program's rule) and earlier reserved words. tests/c check that this covers
+# every target and file of a generated folder.
+RESERVED_STEMS = frozenset({"makefile", "gnumakefile", "all", "clean", "model", "depsim"})
 
 
 def c_file_stem(name: str) -> str:
     """A model name as a program and library name: letters, digits and `_` only (anything
-    else becomes `_`), not starting with a digit, never empty, never a file of the folder."""
+    else becomes `_`), not starting with a digit, never empty, never a file or a make target
+    of the folder."""
     stem = _IDENTIFIER.sub("_", str(name))[:64]
-    if not stem or stem[0].isdigit() or stem in RESERVED_STEMS:
+    if not stem or stem[0].isdigit() or stem.lower() in RESERVED_STEMS:
         stem = "model_" + stem
     return stem

@@ -16,6 +16,7 @@ from depsim.dsl import ir
 from depsim.dsl.attributes import HINGE_PROPERTIES
 
 from .assembly import assemble
+from .errors import CodegenError
 from .expr import to_sympy
 from .kinematics import Coordinates, Kinematics
 from .layout import build_coordinates
@@ -111,11 +112,26 @@ def derive(model: ir.Model) -> SymbolicSystem:
         hinge_gamma=acceleration_rhs(thetas, hinge_jacobian, symbols),
         hinge_properties=_hinge_properties(model, kin),
         output_names=tuple(o.name for o in model.outputs),
-        outputs=column(to_sympy(o.expr, kin) for o in model.outputs),
+        outputs=column(_output(o, kin) for o in model.outputs),
         energy_names=loads.energy_names, energy=column(loads.energies),
         dissipator_names=loads.dissipator_names, dissipation=column(loads.dissipation),
         q0=column(q0), qd0=column(qd0),
     )
+
+
+_NOT_FINITE = (sympy.zoo, sympy.oo, -sympy.oo, sympy.nan)
+
+
+def _output(output: ir.Output, kin: Kinematics) -> sympy.Expr:
+    """An output's expression; E905 when it has no finite value in any state (the checker
+    folds constants, but `1 / (h1 - h1)` becomes 1/0 only here, where h1 - h1 cancels)."""
+    expr = to_sympy(output.expr, kin)
+    if expr.has(*_NOT_FINITE):
+        raise CodegenError("E905", f"output '{output.name}' has no finite value in any state: "
+                           "it divides by zero or takes a function outside its domain once "
+                           "its terms cancel", output.span,
+                           hint="check the output's expression for a difference of equal terms")
+    return expr
 
 
 def _constraints(model: ir.Model, kin: Kinematics, q0: tuple[sympy.Expr, ...]):

@@ -4,7 +4,9 @@ Output is byte-for-byte reproducible: no timestamps, no absolute paths, fixed or
 
 from __future__ import annotations
 
+import hashlib
 import importlib.util
+import re
 from pathlib import Path
 from types import ModuleType
 
@@ -49,12 +51,26 @@ def numpy_source(model: ir.Model, system: SymbolicSystem | None = None) -> str:
     return render_numpy(view)
 
 
+MAX_FILE_STEM = 64
+
+
+def module_file_stem(name: str) -> str:
+    """The NumPy module's file name (without `.py`) for a model name: the name itself when it
+    is an identifier of at most MAX_FILE_STEM characters, else its letters, digits and `_`
+    cut short, with a hash of the whole name so different names stay different files."""
+    if re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name) and len(name) <= MAX_FILE_STEM:
+        return name
+    digest = hashlib.sha256(name.encode("utf-8")).hexdigest()[:12]
+    return f"{re.sub(r'[^A-Za-z0-9_]', '_', name)[:MAX_FILE_STEM - 13]}_{digest}"
+
+
 def compile_numpy(model: ir.Model, out_dir: Path, system: SymbolicSystem | None = None) -> Path:
-    """Write `out_dir/<model name>.py`, the model's standalone NumPy module; return its path.
-    `system`: an already derived SymbolicSystem of the model, to skip derivation."""
+    """Write `out_dir/<model name>.py` (`module_file_stem`), the model's standalone NumPy
+    module; return its path. `system`: an already derived SymbolicSystem of the model, to
+    skip derivation."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    path = out_dir / f"{model.name}.py"
+    path = out_dir / f"{module_file_stem(model.name)}.py"
     path.write_text(numpy_source(model, system), encoding="utf-8", newline="\n")
     return path
 

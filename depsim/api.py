@@ -20,7 +20,7 @@ from typing import Mapping
 import numpy as np
 
 from depsim import __version__
-from depsim.dsl import ir, load_model, parse_quantity
+from depsim.dsl import check_parameters, ir, load_model, parse_quantity, with_elements
 from depsim.errors import UsageError
 
 
@@ -43,18 +43,13 @@ class Model:
     def name(self) -> str:
         return self.ir.name
 
-    def with_elements(self, elements: Mapping[str, int]) -> Model:
-        """The same model with other beam element counts, e.g. {"link1": 8}."""
-        beams = {b.name: b for b in self.ir.beams}
-        for name, count in elements.items():
-            if name not in beams:
-                known = ", ".join(beams) or "none"
-                raise UsageError(f"--elements: unknown beam '{name}' (beams in this model: {known})")
-            if not isinstance(count, int) or isinstance(count, bool) or count < 1:
-                raise UsageError(f"--elements: element count for '{name}' must be a positive integer")
-        new_beams = tuple(dataclasses.replace(b, elements=elements.get(b.name, b.elements))
-                          for b in self.ir.beams)
-        return Model(dataclasses.replace(self.ir, beams=new_beams), self.path)
+    def with_elements(self, elements: Mapping[str, int | str]) -> Model:
+        """The same model with other beam element counts, e.g. {"link1": 8} (checked against
+        the language's limits, docs/language.md)."""
+        try:
+            return Model(with_elements(self.ir, elements), self.path)
+        except ValueError as exc:
+            raise UsageError(f"--elements: {exc}") from None
 
     def compile(self, target: str = "numpy", out_dir: str | os.PathLike | None = None) -> Simulator:
         """Generate code for `target` and load it: "numpy" (a Python module) or "c" (a C
@@ -108,6 +103,12 @@ class Simulator:
             if name not in by_name:
                 raise UsageError(_unknown_parameter(name, by_name, derived))
             p[by_name[name]] = _parameter_value(self.model.ir.params[by_name[name]], value)
+        # the model text's range checks (a length > 0, stop_min < stop_max, ...) hold for
+        # every value set here too
+        problems = check_parameters(self.model.ir, p, {n: f"{n}={v}" for n, v in
+                                                       (set or {}).items()})
+        if problems:
+            raise UsageError("; ".join(problems))
         return p
 
     def run(self, set: Mapping[str, float | str] | None = None, t_end: float | None = None,

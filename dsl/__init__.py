@@ -7,6 +7,9 @@
     summary(model) -> str              one screen describing a checked model
     evaluate(expr, params_values)      the value of a constant IR expression
     parse_quantity(text) -> (value, dim)   a constant such as "1.5 N*m", in SI
+    read_model_text(path) -> str       a model file's text (regular file, at most 1 MiB, UTF-8)
+    with_elements(model, counts) -> Model   other beam element counts (checked; ValueError)
+    check_parameters(model, values, given) -> [str]   range checks of a parameter vector
 
 The checked `Model` and its parts are defined in `depsim.dsl.ir`.
 """
@@ -18,13 +21,17 @@ from pathlib import Path
 from .errors import ModelError, Reporter, file_span, format_diagnostics
 from .evaluate import EvaluationError, evaluate
 from .expressions import parse_quantity
+from .files import MAX_MODEL_BYTES, read_model_text
 from .ir import Diagnostic, Model
+from .limits import check_parameters
+from .members import with_elements
 from .parse import parse_source
 from .resolve import resolve
 from .summary import summary
 
-__all__ = ["Diagnostic", "EvaluationError", "Model", "ModelError", "evaluate",
-           "format_diagnostics", "load_model", "parse_model", "parse_quantity", "summary"]
+__all__ = ["MAX_MODEL_BYTES", "Diagnostic", "EvaluationError", "Model", "ModelError",
+           "check_parameters", "evaluate", "format_diagnostics", "load_model", "parse_model",
+           "parse_quantity", "read_model_text", "summary", "with_elements"]
 
 
 def parse_model(text: str, filename: str) -> Model:
@@ -45,28 +52,6 @@ def parse_model(text: str, filename: str) -> Model:
 
 
 def load_model(path: str | Path) -> Model:
-    """Read a .dep file (UTF-8) and check it; raises ModelError (E002 when the file cannot
-    be read, E003 when it is not UTF-8 text)."""
-    filename = str(path)
-    try:
-        data = Path(path).read_bytes()
-    except OSError as error:
-        reason = error.strerror or type(error).__name__
-        raise ModelError([Diagnostic("E002", f"cannot read '{filename}': {reason}",
-                                     file_span(filename))]) from None
-    text = _decode(data, filename)
-    return parse_model(text, filename)
-
-
-def _decode(data: bytes, filename: str) -> str:
-    problem = ""
-    if b"\x00" in data:
-        problem = "it contains NUL bytes (a binary file?)"
-    else:
-        try:
-            return data.decode("utf-8-sig")
-        except UnicodeDecodeError as error:
-            line = data[:error.start].count(b"\n") + 1
-            problem = f"byte {error.start} (line {line}) is not valid UTF-8"
-    raise ModelError([Diagnostic("E003", f"'{filename}' is not a UTF-8 text file: {problem}",
-                                 file_span(filename))])
+    """Read a .dep file (UTF-8, a regular file of at most MAX_MODEL_BYTES) and check it;
+    raises ModelError (E002 when the file cannot be read, E003 when it is not UTF-8 text)."""
+    return parse_model(read_model_text(path), str(path))

@@ -12,8 +12,9 @@ from dataclasses import dataclass
 
 from .errors import Reporter, at, did_you_mean, join_names
 from .evaluate import EvaluationError, Typed, evaluate, param_indices
-from .expressions import Context, ExprResolver
-from .ir import DerivedName, Dim, Expr, Param, ParamKind, ParamRef, Span
+from .expressions import Context, ExprResolver, warn_plain_angle
+from .ir import DerivedName, Dim, Expr, Limit, Param, ParamKind, ParamRef, Span
+from .limits import violation
 from .syntax import AstExpr, AttributeItem, Block, NumberLit, PointItem, Quantity, VectorLit
 from .units import ANGLE, LENGTH, MASS, NONE, TIME, TORQUE, describe, dim_div, si_text
 
@@ -141,6 +142,7 @@ class AttributeReader:
         self.resolver = resolver
         self.vector = vector
         self.report: Reporter = resolver.report
+        self.limits: list[Limit] = []  # every range check made, for Model.limits
 
     def scalar(self, item: AttributeItem, spec: AttrSpec, entry: str) -> Expr | None:
         """A scalar attribute as a parameter entry named `entry` (or a derived expression)."""
@@ -150,7 +152,8 @@ class AttributeReader:
             return None
         expr = self.enter(entry, typed.expr, spec.dim, item.value.span)
         if expr is not None and spec.limit:
-            self.check_limit(expr, spec.dim, spec.limit, spec.name, item.value.span)
+            self.check_limit(Limit(entry, expr, spec.limit, si_text(spec.dim),
+                                   item.value.span))
         return expr
 
     def enter(self, entry: str, expr: Expr, dim: Dim, span: Span) -> Expr | None:
@@ -175,7 +178,10 @@ class AttributeReader:
 
     def expect(self, typed: Typed, dim: Dim, what: str, node) -> bool:
         """Report unless `typed` has dimension `dim` (a plain number counts as radians)."""
-        if typed.dim == dim or (dim == ANGLE and typed.dim == NONE):
+        if typed.dim == dim:
+            return True
+        if dim == ANGLE and typed.dim == NONE:
+            warn_plain_angle(self.report, node, f"{what} is an angle:")
             return True
         example = self._example(node, dim)
         if typed.dim == NONE:
@@ -203,13 +209,16 @@ class AttributeReader:
             self.report.error("E027", f"cannot evaluate {what}: {error}", span)
             return None
 
-    def check_limit(self, expr: Expr, dim: Dim, limit: str, what: str, span: Span) -> None:
-        value = self.value(expr, span, what)
-        if value is None:
-            return
-        if limit == "positive" and value <= 0:
-            self.report.error("E025", f"{what} must be positive, got {value:g} {si_text(dim)}",
-                              span)
-        elif limit == "nonnegative" and value < 0:
-            self.report.error("E025", f"{what} must not be negative, got {value:g} "
-                              f"{si_text(dim)}", span)
+    def check_limit(self, limit: Limit) -> bool:
+        """Record `limit` (for Model.limits) and check it at the default parameters; False
+        after reporting E025 (E028 for an ordered pair of attributes) or E027."""
+        self.limits.append(limit)
+        try:
+            message = violation(limit, self.vector.defaults())
+        except EvaluationError as error:
+            self.report.error("E027", f"cannot evaluate {limit.what}: {error}", limit.span)
+            return False
+        if message is not None:
+            code = "E028" if limit.bound is not None else "E025"
+            self.report.error(code, message, limit.span)
+        return message is None

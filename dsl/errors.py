@@ -29,6 +29,7 @@ CODES: dict[str, str] = {
     "E005": "statement given twice",
     "E006": "nesting too deep",
     "E007": "number out of range",
+    "E008": "name too long",
     # names
     "E010": "unknown name",
     "E011": "duplicate name",
@@ -69,6 +70,7 @@ CODES: dict[str, str] = {
     "W002": "parameter never used",
     "W003": "output interval longer than the simulation",
     "W004": "model has no bodies or beams",
+    "W005": "a plain number taken as radians looks like degrees",
 }
 
 MAX_DIAGNOSTICS = 50  # after this many errors, stop collecting: the rest are usually noise
@@ -149,17 +151,35 @@ def format_diagnostics(diagnostics: Iterable[Diagnostic], source_text: str | Non
     return "".join(_format_one(d, lines) + "\n" for d in sorted(diagnostics, key=sort_key))
 
 
+SHOWN_LINE = 160  # a longer source line is shown as a window around the caret
+
+
 def _format_one(diagnostic: Diagnostic, lines: list[str]) -> str:
     out = [header(diagnostic)]
     span = diagnostic.span
     if 1 <= span.line <= len(lines) and lines[span.line - 1].strip():
-        text = lines[span.line - 1].rstrip("\r\n")
+        text, span = _window(lines[span.line - 1].rstrip("\r\n"), span)
         out.append(text)
         out.append(_caret(text, span))
     if diagnostic.hint:
         out.append(f"hint: {diagnostic.hint}")
     out.extend(f"note: {note}" for note in diagnostic.notes)
     return "\n".join(out)
+
+
+def _window(text: str, span: Span) -> tuple[str, Span]:
+    """At most about SHOWN_LINE characters of a long line around the span's start, with
+    '...' where text is left out; the span moved to match."""
+    if len(text) <= SHOWN_LINE:
+        return text, span
+    start = max(0, min(span.col - 1 - SHOWN_LINE // 4, len(text) - SHOWN_LINE))
+    end = start + SHOWN_LINE
+    prefix = "..." if start > 0 else ""
+    shown = prefix + text[start:end] + ("..." if end < len(text) else "")
+    shift = len(prefix) - start
+    end_col = span.end_col + shift if span.end_line == span.line else len(shown) + 1
+    return shown, Span(span.file, span.line, span.col + shift, span.line,
+                       min(end_col, len(prefix) + SHOWN_LINE + 1))
 
 
 def _caret(text: str, span: Span) -> str:

@@ -65,7 +65,7 @@ def _reason(error: Exception) -> str:
         return "the result is too large"
     if isinstance(error, EvaluationError):
         return str(error)
-    return "a function is outside its domain (e.g. sqrt or log of a negative number)"
+    return "a function is outside its domain (e.g. log of 0, sqrt of a negative number)"
 
 
 def _value(expr: Expr, params: Sequence[float]) -> float:

@@ -22,6 +22,37 @@ from .syntax import AstExpr, BinaryOp, CallExpr, NameRef, NumberLit, Quantity, U
 from .units import ANGLE, NONE, UNITS, describe, dim_div, dim_mul, dim_scale, parse_unit
 
 
+FULL_TURN = 2 * math.pi
+
+
+def plain_number(node: AstExpr) -> tuple[str, float] | None:
+    """(text, value) of a number written without a unit, with its signs (`90`, `-90`);
+    None for anything else."""
+    negative = False
+    while isinstance(node, UnaryOp):
+        negative ^= node.op == "-"
+        node = node.arg
+    if not isinstance(node, NumberLit):
+        return None
+    return ("-" if negative else "") + node.text, -node.value if negative else node.value
+
+
+def warn_plain_angle(report: Reporter, node: AstExpr, lead: str) -> None:
+    """W005 when a plain number stands for an angle (so it is in radians) but looks like
+    degrees: more than a full turn, or a whole number other than 0. `lead` starts the
+    message: "latch is an angle:"."""
+    found = plain_number(node)
+    if found is None:
+        return
+    text, value = found
+    whole = text.lstrip("-").isdigit()
+    if value == 0 or not (abs(value) > FULL_TURN or whole):
+        return
+    report.warning("W005", f"{lead} the plain number {text} is taken as {text} rad "
+                   f"({math.degrees(value):.4g} deg)", node.span,
+                   hint=f"did you mean {text} deg? (write {text} rad to keep radians)")
+
+
 class Context(Enum):
     CONSTANT = "constant"  # params, attributes, initial values, settings
     OUTPUT = "output"  # may also use the state and time
@@ -72,7 +103,8 @@ class ExprResolver:
         if value is None:
             return None
         factor, dim = parse_unit(node.unit)
-        return Typed(binary("*", value.expr, Num(factor)), dim_mul(value.dim, dim))
+        return self._folded(Typed(binary("*", value.expr, Num(factor)),
+                                  dim_mul(value.dim, dim)), (value.expr,), node)
 
     def _resolve_NameRef(self, node: NameRef, context: Context) -> Typed | None:
         if len(node.parts) > 1:
@@ -148,6 +180,7 @@ class ExprResolver:
         right = self.resolve(node.right, context)
         if left is None or right is None:
             return None
+        operands = (left.expr, right.expr)
         if node.op in "+-":
             dim = compatible(left.dim, right.dim)
             if dim is None:
@@ -156,12 +189,34 @@ class ExprResolver:
                     "E032", f"cannot {verb} {describe(right.dim)} "
                     f"{'to' if node.op == '+' else 'from'} {describe(left.dim)}", node.span)
                 return None
-            return Typed(binary(node.op, left.expr, right.expr), dim)
-        if node.op == "*":
-            return Typed(binary("*", left.expr, right.expr), dim_mul(left.dim, right.dim))
-        if node.op == "/":
-            return Typed(binary("/", left.expr, right.expr), dim_div(left.dim, right.dim))
-        return self._power(node, left, right)
+            if left.dim != right.dim:  # an angle and a plain number: radians
+                plain = node.left if left.dim == NONE else node.right
+                warn_plain_angle(self.report, plain, "in a sum with an angle,")
+            typed = Typed(binary(node.op, left.expr, right.expr), dim)
+        elif node.op == "*":
+            typed = Typed(binary("*", left.expr, right.expr), dim_mul(left.dim, right.dim))
+        elif node.op == "/":
+            if right.expr == Num(0.0):  # a constant zero divisor: never a value
+                self.report.error("E027", "cannot evaluate: division by zero", node.span,
+                                  hint=_zero_hint(node.right))
+                return None
+            typed = Typed(binary("/", left.expr, right.expr), dim_div(left.dim, right.dim))
+        else:
+            typed = self._power(node, left, right)
+        return None if typed is None else self._folded(typed, operands, node)
+
+    def _folded(self, typed: Typed, operands: tuple[Expr, ...], node) -> Typed | None:
+        """`typed`, unless its operands are numbers and it has no value (the builders fold
+        numbers, so a node left over means division by zero, a function outside its domain
+        or overflow): E027 at `node`."""
+        if isinstance(typed.expr, Num) or not all(isinstance(o, Num) for o in operands):
+            return typed
+        try:
+            evaluate(typed.expr, ())
+        except EvaluationError as error:
+            self.report.error("E027", f"cannot evaluate: {error}", node.span)
+            return None
+        return typed
 
     def _power(self, node: BinaryOp, base: Typed, exponent: Typed) -> Typed | None:
         if exponent.dim != NONE:
@@ -210,7 +265,10 @@ class ExprResolver:
         if any(a is None for a in args):
             return None
         dim = self._call_dim(node, [a.dim for a in args])
-        return None if dim is None else Typed(call(name, tuple(a.expr for a in args)), dim)
+        if dim is None:
+            return None
+        exprs = tuple(a.expr for a in args)
+        return self._folded(Typed(call(name, exprs), dim), exprs, node)
 
     def _call_dim(self, node: CallExpr, dims: list[Dim]) -> Dim | None:
         name = node.func.text
@@ -252,3 +310,10 @@ def parse_quantity(text: str) -> tuple[float, Dim]:
     if value is None or report.has_errors:
         raise ValueError(report.errors()[0].message)
     return value, typed.dim
+
+
+def _zero_hint(divisor: AstExpr) -> str:
+    """Which divisor is zero, when it is not written as 0."""
+    if isinstance(divisor, NameRef):
+        return f"'{divisor.dotted}' is zero"
+    return "" if isinstance(divisor, NumberLit) else "the divisor is zero"

@@ -341,6 +341,24 @@ class Placement:
 
 
 @dataclass(frozen=True, slots=True)
+class Limit:
+    """A range check on a value computed from the parameters, kept so that any parameter
+    vector can be checked as the model's defaults were (`dsl.limits.check_parameters`).
+
+    kind "positive": value > 0; "nonnegative": value >= 0; "nonzero": value != 0;
+    "below": value < bound; "at_least": value >= bound. `what` names the value in messages
+    (`rod.length`, `h1.stop_min`), `bound_what` the bound; `unit` is the SI unit text."""
+
+    what: str
+    expr: Expr
+    kind: str
+    unit: str
+    span: Span
+    bound: Expr | None = None
+    bound_what: str = ""
+
+
+@dataclass(frozen=True, slots=True)
 class Diagnostic:
     """A warning the checker found (errors never reach the IR; `dsl.ModelError` carries them
     in the same type). code "E0xx" is an error, "W0xx" a warning. hint: one suggestion, e.g.
@@ -375,3 +393,4 @@ class Model:
     placements: tuple[Placement, ...]  # assembly order from the ground (a spanning forest)
     loop_joints: tuple[tuple[JointKind, int], ...]  # joints closing kinematic loops
     warnings: tuple[Diagnostic, ...]
+    limits: tuple[Limit, ...] = ()  # every range check of an attribute, in file order

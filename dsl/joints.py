@@ -9,14 +9,14 @@ from __future__ import annotations
 
 from .attributes import SPECS, AttributeReader, read_block
 from .errors import did_you_mean, join_names
-from .evaluate import binary
+from .evaluate import binary, call
 from .hinge_angle import hinge_angle
-from .ir import Attachment, Cable, CableTerm, Expr, Num, Span
+from .ir import Attachment, Cable, CableTerm, Expr, Limit, Num
 from .linear import LinearForm, NotLinear, linearize
 from .members import read_vector
 from .names import MEMBER_KINDS, Symbol, SymbolTable, element_name
 from .syntax import AttachmentRef, CableStmt, JointStmt, VectorLit
-from .units import NONE
+from .units import NONE, si_text
 
 def attachment(ref: AttachmentRef, symbols: SymbolTable, reader: AttributeReader
                ) -> tuple[Symbol, Attachment] | None:
@@ -72,7 +72,10 @@ def resolve_hinge(statement: JointStmt, symbols: SymbolTable, reader: AttributeR
         if key not in found and spec.default is not None:
             fields[key] = reader.enter(f"{name}.{key}", Num(spec.default), spec.dim,
                                        statement.name.span)
-    _check_hinge_limits(found, fields, reader)
+            if fields[key] is not None and spec.limit:
+                reader.limits.append(Limit(f"{name}.{key}", fields[key], spec.limit,
+                                           si_text(spec.dim), statement.name.span))
+    _check_hinge_limits(name, found, fields, reader)
     if ends is None or angle is None or any(fields[k] is None for k in found if k != "angle"):
         return None
     fields.update(name=name, a=ends[0][1], b=ends[1][1], sign=angle[0], offset=angle[1],
@@ -80,23 +83,19 @@ def resolve_hinge(statement: JointStmt, symbols: SymbolTable, reader: AttributeR
     return fields
 
 
-def _check_hinge_limits(found, fields, reader: AttributeReader) -> None:
+def _check_hinge_limits(name: str, found, fields, reader: AttributeReader) -> None:
     for needs_latch in ("latch_stiffness", "latch_damping"):
         if needs_latch in found and "latch" not in found:
             reader.report.error("E028", f"{needs_latch} is given without a latch angle",
                                 found[needs_latch].span, hint="add: latch = 90 deg")
-    pairs = (("stop_min", "stop_max", "stop_min must be less than stop_max"),
-             ("friction", "static_friction", "static_friction must be at least friction"))
-    for low, high, message in pairs:
-        if fields.get(low) is None or fields.get(high) is None:
+    specs = {spec.name: spec for spec in SPECS["hinge"]}
+    for key, kind, bound in (("stop_min", "below", "stop_max"),
+                             ("static_friction", "at_least", "friction")):
+        if fields.get(key) is None or fields.get(bound) is None:
             continue
-        low_value = reader.value(fields[low], found[low].span, low)
-        high_value = reader.value(fields[high], found[high].span, high)
-        if low_value is None or high_value is None:
-            continue
-        if low_value > high_value or (low == "stop_min" and low_value == high_value):
-            reader.report.error("E028", message, found[high].span,
-                                notes=[f"{low} = {low_value:g}, {high} = {high_value:g} (SI)"])
+        later = max(found[key], found[bound], key=lambda item: (item.span.line, item.span.col))
+        reader.check_limit(Limit(f"{name}.{key}", fields[key], kind, si_text(specs[key].dim),
+                                 later.span, fields[bound], f"{name}.{bound}"))
 
 
 def resolve_slider(statement: JointStmt, symbols: SymbolTable, reader: AttributeReader
@@ -114,17 +113,14 @@ def resolve_slider(statement: JointStmt, symbols: SymbolTable, reader: Attribute
     elif item is not None:
         axis = read_vector(reader, item.value, NONE, "axis",
                            (f"{name}.axis_x", f"{name}.axis_y"))
-        if axis is not None and _is_zero(axis, item.value.span, reader):
-            reader.report.error("E025", "axis must not be zero", item.value.span)
-            axis = None
+        if axis is not None:
+            size = binary("+", call("abs", (axis[0],)), call("abs", (axis[1],)))
+            if not reader.check_limit(Limit(f"{name}.axis", size, "nonzero", "",
+                                            item.value.span)):
+                axis = None
     if ends is None or axis is None:
         return None
     return dict(name=name, a=ends[0][1], b=ends[1][1], axis=axis, span=statement.span)
-
-
-def _is_zero(axis: tuple[Expr, Expr], span: Span, reader: AttributeReader) -> bool:
-    values = [reader.value(c, span, "axis") for c in axis]
-    return all(v == 0.0 for v in values)
 
 
 def resolve_cable(statement: CableStmt, symbols: SymbolTable, reader: AttributeReader,

@@ -2,15 +2,22 @@
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Mapping
+
 from .attributes import SPECS, AttributeReader, read_block
+from .errors import Reporter, join_names
 from .evaluate import Typed, binary
 from .expressions import Context
-from .ir import Beam, Body, Dim, Expr, Ground, Num, Point, Span
+from .ir import Beam, Body, Dim, Expr, Ground, Model, Num, Point, Span
 from .syntax import (AttributeItem, GravityStmt, GroundStmt, MemberStmt, NumberLit, PointItem,
                      VectorLit)
 from .units import LENGTH, dim_mul, parse_unit
 
-MAX_ELEMENTS = 1000
+# Beam elements drive the size of the symbolic system: derivation takes about a minute at
+# 2 x 128 elements and grows faster than the square of the count.
+MAX_ELEMENTS = 100  # per beam
+MAX_TOTAL_ELEMENTS = 200  # all beams of a model together
 
 
 def read_vector(reader: AttributeReader, vector: VectorLit, dim: Dim, what: str,
@@ -114,10 +121,50 @@ def _elements(item: AttributeItem | None, owner: str, reader: AttributeReader) -
     if item is None:
         return None
     value = item.value
-    if isinstance(value, NumberLit) and value.text.isdigit() \
-            and 1 <= value.value <= MAX_ELEMENTS:
-        return int(value.value)
+    if isinstance(value, NumberLit) and _is_count(value.text):
+        return int(value.text)
     reader.report.error("E024", f"elements of {owner} must be a whole number from 1 to "
                         f"{MAX_ELEMENTS}, written as a plain number", value.span,
                         hint="e.g. elements = 4 (parameters and units are not allowed here)")
     return None
+
+
+def _is_count(text: str) -> bool:
+    """ASCII digits naming a whole number from 1 to MAX_ELEMENTS."""
+    return text.isascii() and text.isdigit() \
+        and len(text.lstrip("0")) <= len(str(MAX_ELEMENTS)) and 1 <= int(text) <= MAX_ELEMENTS
+
+
+def check_element_total(beams: list[Beam], report: Reporter) -> None:
+    """E024 at the beam whose elements take the model past MAX_TOTAL_ELEMENTS."""
+    total = 0
+    for beam in beams:
+        total += beam.elements
+        if total > MAX_TOTAL_ELEMENTS:
+            report.error("E024", f"the beams up to {beam.name} have {total} elements in all; "
+                         f"a model has at most {MAX_TOTAL_ELEMENTS}", beam.span,
+                         hint="use fewer elements per beam")
+            return
+
+
+def with_elements(model: Model, counts: Mapping[str, int | str]) -> Model:
+    """`model` with other element counts for the beams named in `counts` (beam name -> a
+    count: an int, or text of ASCII digits, e.g. from `--elements link1=8`). Each count is a
+    whole number from 1 to MAX_ELEMENTS, and all beams together have at most
+    MAX_TOTAL_ELEMENTS. Raises ValueError saying what is wrong."""
+    beams = {beam.name: beam for beam in model.beams}
+    for name, count in counts.items():
+        if name not in beams:
+            raise ValueError(f"unknown beam '{name}' (beams in this model: "
+                             f"{join_names(beams)})")
+        text = str(count) if isinstance(count, int) and not isinstance(count, bool) else count
+        if not isinstance(text, str) or not _is_count(text.strip()):
+            raise ValueError(f"the element count of beam '{name}' must be a whole number "
+                             f"from 1 to {MAX_ELEMENTS} (ASCII digits), got {count!r}")
+    new = tuple(dataclasses.replace(b, elements=int(str(counts[b.name]).strip()))
+                if b.name in counts else b for b in model.beams)
+    total = sum(beam.elements for beam in new)
+    if total > MAX_TOTAL_ELEMENTS:
+        raise ValueError(f"the beams would have {total} elements in all; a model has at most "
+                         f"{MAX_TOTAL_ELEMENTS}")
+    return dataclasses.replace(model, beams=new)

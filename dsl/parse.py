@@ -10,9 +10,10 @@ later errors are reported too.
 from __future__ import annotations
 
 import functools
+import unicodedata
 from pathlib import Path
 
-from lark import Lark, Token, UnexpectedInput, UnexpectedToken
+from lark import Lark, Token, Tree, UnexpectedInput, UnexpectedToken
 from lark.exceptions import VisitError
 from lark.lexer import LineCounter
 
@@ -23,6 +24,16 @@ from .syntax_messages import describe_syntax_error, keyword_replay
 
 MAX_SYNTAX_ERRORS = 20
 MAX_NESTING = 64  # parentheses deeper than this are refused before parsing
+MAX_EXPRESSION_DEPTH = 100  # operators, signs, units and calls inside one another
+MAX_NAME_LENGTH = 64  # characters of a name
+MAX_NON_ASCII_ERRORS = 10
+
+# The expression nodes of lark's tree (grammar.lark's aliases): each is one level of depth.
+_EXPRESSION_NODES = frozenset({"add", "sub", "mul", "div", "neg", "pos", "pow", "with_unit",
+                               "call", "ref", "number"})
+# Characters people paste for ASCII ones that NFKC normalisation does not map.
+_LOOKALIKES = {"\u2212": "-", "\u2013": "-", "\u2014": "-", "\u00d7": "*", "\u00b7": "*",
+               "\u22c5": "*", "\u2217": "*", "\u201c": '"', "\u201d": '"', "\u00a0": " "}
 
 
 @functools.cache
@@ -44,7 +55,7 @@ def boundary_states() -> frozenset[int]:
 
 def parse_source(text: str, filename: str, report: Reporter) -> SourceFile | None:
     """Parse `text`; None when it has syntax errors (all recorded in `report`)."""
-    if not _nesting_ok(text, filename, report):
+    if not _ascii_ok(text, filename, report) or not _nesting_ok(text, filename, report):
         return None
     source = text if text.endswith("\n") else text + "\n"
     recovery = _Recovery(source, filename, report)
@@ -60,7 +71,7 @@ def parse_source(text: str, filename: str, report: Reporter) -> SourceFile | Non
 
 def parse_expression(text: str, filename: str, report: Reporter) -> AstExpr | None:
     """Parse one expression (e.g. a value given on the command line); None on errors."""
-    if not _nesting_ok(text, filename, report):
+    if not _ascii_ok(text, filename, report) or not _nesting_ok(text, filename, report):
         return None
     try:
         tree = parser().parse(text, start="expr")
@@ -72,6 +83,8 @@ def parse_expression(text: str, filename: str, report: Reporter) -> AstExpr | No
 
 
 def _to_syntax(tree, filename: str, report: Reporter):
+    if not _tree_ok(tree, filename, report):
+        return None
     try:
         return ToSyntax(filename).transform(tree)
     except VisitError as error:
@@ -81,6 +94,85 @@ def _to_syntax(tree, filename: str, report: Reporter):
         pass
     report.error("E006", "the text is nested too deeply to read", Span(filename, 1, 1, 1, 2))
     return None
+
+
+def _tree_ok(tree: Tree, filename: str, report: Reporter) -> bool:
+    """Report names longer than MAX_NAME_LENGTH and expressions deeper than
+    MAX_EXPRESSION_DEPTH (E006: every later stage walks them recursively). Iterative."""
+    ok = True
+    too_deep: set[int] = set()  # ids of the outermost expressions reported (once each)
+    stack: list[tuple[Tree | Token, int, Tree]] = [(tree, 0, tree)]
+    while stack:
+        node, depth, outermost = stack.pop()
+        if isinstance(node, Token):
+            if node.type == "NAME" and len(node) > MAX_NAME_LENGTH:
+                ok = False
+                report.error("E008", f"the name '{node[:24]}...' is {len(node)} characters "
+                             f"long; names have at most {MAX_NAME_LENGTH}",
+                             Span(filename, node.line, node.column, node.end_line,
+                                  node.end_column))
+            continue
+        if node.data in _EXPRESSION_NODES:
+            depth += 1
+            outermost = outermost if depth > 1 else node
+            if depth > MAX_EXPRESSION_DEPTH:
+                ok = False
+                if id(outermost) in too_deep:
+                    continue
+                too_deep.add(id(outermost))
+                meta = outermost.meta
+                report.error("E006", f"expression nested more than {MAX_EXPRESSION_DEPTH} "
+                             "levels deep (operators, signs and calls inside one another)",
+                             Span(filename, meta.line, meta.column, meta.end_line,
+                                  meta.end_column),
+                             hint="split it with param statements")
+                continue
+        stack.extend((child, depth, outermost) for child in node.children)
+    return ok
+
+
+def _ascii_ok(text: str, filename: str, report: Reporter) -> bool:
+    """Report every non-ASCII character outside comments and descriptions (a full-width
+    digit would otherwise read as a digit, a lookalike minus as an unknown character)."""
+    if text.isascii():
+        return True
+    found = 0
+    for number, line in enumerate(text.split("\n"), start=1):
+        in_string = False
+        for col, char in enumerate(line, start=1):
+            if char == '"':
+                in_string = not in_string
+            elif char == "#" and not in_string:
+                break
+            elif not char.isascii() and not in_string:
+                found += 1
+                message, hint = _non_ascii(char)
+                report.error("E001", message, Span(filename, number, col, number, col + 1),
+                             hint)
+                if found >= MAX_NON_ASCII_ERRORS:
+                    return False
+    return not found
+
+
+def _non_ascii(char: str) -> tuple[str, str]:
+    """The message and hint for a non-ASCII character in model text."""
+    name = unicodedata.name(char, f"U+{ord(char):04X}")
+    shown = char if char.isprintable() and not char.isspace() else f"U+{ord(char):04X}"
+    message = f"non-ASCII character '{shown}' ({name})"
+    plain = unicodedata.normalize("NFKC", char)
+    if not plain.isascii() or not plain.isprintable():
+        plain = _LOOKALIKES.get(char, "")
+    if "SUPERSCRIPT" in name and plain.isdigit():  # m² for m^2
+        return f"{message}: a power is written with '^'", f"write ^{plain}"
+    if char.isdigit() or plain.isdigit():
+        digit = plain if plain.isdigit() else str(unicodedata.digit(char, ""))
+        return f"{message}: numbers are written with the ASCII digits 0-9", \
+            f"write {digit}" if digit else ""
+    if char.isalpha():
+        return f"{message}: names are written with ASCII letters, digits and '_'", \
+            f"write {plain}" if plain.isalpha() else ""
+    return f"{message}: model text is ASCII outside comments and descriptions", \
+        f"write '{plain}'" if plain else ""
 
 
 def _nesting_ok(text: str, filename: str, report: Reporter) -> bool:

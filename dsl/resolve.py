@@ -19,7 +19,7 @@ from .initial import InitialValues
 from .ir import (Beam, Body, Cable, Expr, Ground, Hinge, Model, Num, Output, Param, ParamKind,
                  Simulation, Slider)
 from .joints import resolve_cable, resolve_hinge, resolve_slider
-from .members import resolve_gravity, resolve_ground, resolve_member
+from .members import check_element_total, resolve_gravity, resolve_ground, resolve_member
 from .names import collect_symbols
 from .syntax import (CableStmt, GravityStmt, GroundStmt, InitialStmt, JointStmt, MemberStmt,
                      ModelStmt, OutputStmt, ParamStmt, SimulateStmt, SourceFile)
@@ -64,6 +64,7 @@ class _ModelBuilder:
                 getattr(self, "_read_" + type(statement).__name__)(statement)
         if self.ground is None:
             self.ground = resolve_ground(None, self.reader, self.source.filename)
+        check_element_total([m for m in self.members if isinstance(m, Beam)], self.report)
         if self.report.has_errors:
             return None
         self._warn_unused_params()
@@ -180,6 +181,10 @@ class _ModelBuilder:
                               f"{si_text(spec.dim) if spec.name != 'tol' else ''}".rstrip(),
                               item.value.span)
             return None
+        if value is not None and spec.name == "tol" and value >= 1:
+            self.report.error("E026", f"tol must be less than 1, got {value:g}",
+                              item.value.span, hint="tol is a relative tolerance, e.g. 1e-8")
+            return None
         return value
 
     def _read_OutputStmt(self, statement: OutputStmt) -> None:
@@ -225,7 +230,8 @@ class _ModelBuilder:
             gravity=self.gravity, ground=self.ground, bodies=bodies, beams=beams,
             hinges=hinges, sliders=sliders, cables=tuple(self.cables),
             outputs=tuple(self.outputs), simulation=self.simulation, placements=placements,
-            loop_joints=loops, warnings=tuple(sorted(self.report.warnings(), key=sort_key)))
+            loop_joints=loops, warnings=tuple(sorted(self.report.warnings(), key=sort_key)),
+            limits=tuple(self.reader.limits))
 
     def _initial(self, joint: str, suffix: str) -> Expr:
         value = self.initial.get(joint, suffix)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from lark import Token, Transformer, v_args
+from lark import Discard, Token, Transformer, v_args
 
 from .ir import Span
 
@@ -18,6 +18,7 @@ from .ir import Span
 STATEMENT_WORDS = ("model", "param", "gravity", "ground", "bar", "body", "beam", "hinge",
                    "slider", "cable", "initial", "simulate", "output")
 KEYWORDS = frozenset(STATEMENT_WORDS + ("joins", "to", "point"))
+KIND_WORDS = ("bar", "body", "beam", "hinge", "slider")  # keywords the syntax tree keeps
 
 
 @dataclass(frozen=True, slots=True)
@@ -220,6 +221,12 @@ class ToSyntax(Transformer):
 
     def _span(self, meta) -> Span:
         return Span(self.filename, meta.line, meta.column, meta.end_line, meta.end_column)
+
+    def __default_token__(self, token: Token):
+        """Keyword tokens say nothing the rule does not, except the element kinds."""
+        if token.type.lower() in KEYWORDS and token.lower() not in KIND_WORDS:
+            return Discard
+        return token
 
     def _ident(self, token: Token) -> Ident:
         return Ident(str(token), Span(self.filename, token.line, token.column,

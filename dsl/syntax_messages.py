@@ -12,10 +12,11 @@ from lark.lexer import PatternStr
 
 from .errors import did_you_mean
 from .ir import Span
-from .syntax import STATEMENT_WORDS
+from .syntax import KEYWORDS, STATEMENT_WORDS
 from .units import unit_suggestion
 
 STATEMENT_KEYWORDS = frozenset(word.upper() for word in STATEMENT_WORDS)  # terminal names
+KEYWORD_TERMINALS = {word.upper(): word for word in KEYWORDS}  # terminal name -> keyword
 
 # label -> broken snippets that fail in the state the label describes.
 EXAMPLES: dict[str, list[str]] = {
@@ -63,16 +64,28 @@ def describe_syntax_error(error: UnexpectedInput, text: str, filename: str
                     "", _token_span(opened, filename))
     if token.type == "RBRACE" and _open_brace(error) is None:
         return "E001", "unmatched '}': no block is open here", "", span
+    glued = _glued_keyword(str(token), expected) if token.type == "NAME" else ""
     if token.type == "NAME":
         special = _unexpected_name(str(token), expected)
         if special:
             code, message, hint = special
-            return code, message, hint, span
+            return code, message, glued or hint, span
     label = _match_example(error)
     found = _describe_token(token)
     if label:
-        return "E001", f"{label}, found {found}", "", span
-    return "E001", f"expected {_words(expected)}{_after(error)}, found {found}", "", span
+        return "E001", f"{label}, found {found}", glued, span
+    return "E001", f"expected {_words(expected)}{_after(error)}, found {found}", glued, span
+
+
+def _glued_keyword(name: str, expected: set[str]) -> str:
+    """A hint when `name` is an expected keyword run together with what follows it
+    (`paramL`, `joinsground`): a keyword ends at a space."""
+    words = [KEYWORD_TERMINALS[t] for t in expected if t in KEYWORD_TERMINALS]
+    glued = [w for w in words if name.startswith(w) and len(name) > len(w)]
+    if not glued:
+        return ""
+    word = max(glued, key=len)
+    return f"a keyword ends at a space: write '{word} {name[len(word):]}'"
 
 
 def _bad_character(error: UnexpectedCharacters, text: str, filename: str
@@ -215,6 +228,8 @@ def _terminal_word(name: str) -> str:
              "NUMBER": "a number", "STRING": "a quoted description"}
     if name in fixed:
         return fixed[name]
+    if name in KEYWORD_TERMINALS:
+        return f"'{KEYWORD_TERMINALS[name]}'"
     try:
         pattern = parser().get_terminal(name).pattern
     except KeyError:

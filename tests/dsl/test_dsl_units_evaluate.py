@@ -25,8 +25,10 @@ def test_grammar_unit_token_names_exactly_the_unit_table():
 
 
 def test_keywords_are_the_grammar_words():
-    words = set(re.findall(r'"([a-z]+)"', GRAMMAR.read_text()))
-    assert words == KEYWORDS
+    found = re.findall(r"^([A-Z]+)\.2: /([a-z]+)\(\?!\[A-Za-z0-9_\]\)/$", GRAMMAR.read_text(),
+                       flags=re.M)
+    assert all(name == word.upper() for name, word in found)
+    assert {word for _, word in found} == KEYWORDS
 
 
 def test_g_is_not_a_unit():

@@ -228,9 +228,12 @@ def test_run_with_elements_uses_them_and_plots(cli, tmp_path, monkeypatch):
 @pytest.mark.parametrize("command", ["compile", "run"])
 @pytest.mark.parametrize("elements, message", [
     ("link3=2", "unknown beam 'link3' (beams in this model: link1, link2)"),
-    ("link1=0", "is not BEAM=N with N a positive integer"),
-    ("link1=-2", "is not BEAM=N with N a positive integer"),
-    ("link1=two", "is not BEAM=N with N a positive integer"),
+    ("link1=0", "beam 'link1' must be a whole number from 1 to 100 (ASCII digits), got '0'"),
+    ("link1=-2", "must be a whole number from 1 to 100"),
+    ("link1=two", "must be a whole number from 1 to 100"),
+    ("link1=\u0663", "(ASCII digits), got '\u0663'"),  # an Arabic-Indic 3
+    ("link1=99999999999999999999", "must be a whole number from 1 to 100"),
+    ("link1", "'link1' is not BEAM=N (e.g. link1=8)"),
 ])
 def test_bad_element_counts_are_usage_errors(cli, tmp_path, monkeypatch, command, elements,
                                              message):
