@@ -16,7 +16,7 @@ from depsim.dsl import ir
 
 from .derive import SymbolicSystem, derive
 from .lower import ModuleView, lower_module
-from .printing import PythonPrinter
+from .printing import IeeePrinter, PythonPrinter
 
 ENVIRONMENT = jinja2.Environment(
     loader=jinja2.PackageLoader("depsim.codegen", "templates"),
@@ -47,7 +47,8 @@ def numpy_source(model: ir.Model, system: SymbolicSystem | None = None) -> str:
     """A model's NumPy module source (derived here unless `system` is given); no file written."""
     from depsim import __version__  # the facade package imports codegen lazily
 
-    view = lower_module(model, system or derive(model), PythonPrinter, __version__)
+    view = lower_module(model, system or derive(model), PythonPrinter, __version__,
+                        ieee_printer=IeeePrinter)
     return render_numpy(view)
 
 

@@ -59,6 +59,7 @@ class FunctionView:
     summary: str
     temporaries: tuple[Assignment, ...]
     results: tuple[ResultView, ...]
+    ieee: bool = False  # evaluated with IEEE semantics (IEEE_FUNCTIONS)
 
 
 @dataclass(frozen=True)
@@ -127,6 +128,13 @@ def slots(system: SymbolicSystem, args: tuple[str, ...]) -> dict[sympy.Symbol, s
     return table
 
 
+# The functions whose expressions the user writes freely (`output` statements): a value outside
+# a function's domain (sqrt of a negative number, log 0, a division by a state passing zero)
+# is nan or inf in every target, as C computes it, and never an exception. The runtime warns
+# about non-finite outputs (docs/language.md, outputs).
+IEEE_FUNCTIONS = ("outputs",)
+
+
 def lower_function(system: SymbolicSystem, spec: FunctionSpec,
                    printer: PrinterFactory) -> FunctionView:
     """CSE the function's non-zero entries together and print them through `printer`."""
@@ -146,7 +154,8 @@ def lower_function(system: SymbolicSystem, spec: FunctionSpec,
         entries[r].append(Entry(index, i * cols + j, print_(value)))
     results = tuple(ResultView(name, _shape(matrix, spec.flatten), tuple(found))
                     for (name, matrix), found in zip(spec.results, entries))
-    return FunctionView(spec.name, spec.args, spec.summary, temporaries, results)
+    return FunctionView(spec.name, spec.args, spec.summary, temporaries, results,
+                        spec.name in IEEE_FUNCTIONS)
 
 
 def _shape(matrix: sympy.MatrixBase, flatten: bool) -> tuple[int, ...]:
@@ -174,8 +183,9 @@ def _require(name: str, unknown: set) -> None:
 
 
 def lower_module(model: ir.Model, system: SymbolicSystem, printer: PrinterFactory,
-                 depsim_version: str) -> ModuleView:
-    """The whole module's view-model: header constants and every function."""
+                 depsim_version: str, ieee_printer: PrinterFactory | None = None) -> ModuleView:
+    """The whole module's view-model: header constants and every function (those of
+    IEEE_FUNCTIONS printed by `ieee_printer` when the backend's own printer is not IEEE)."""
     rows, cols = zip(*system.phi_q_pattern) if system.phi_q_pattern else ((), ())
     values = {
         "COORDINATES": system.coordinates, "PARAMETERS": tuple(p.name for p in model.params),
@@ -199,5 +209,7 @@ def lower_module(model: ir.Model, system: SymbolicSystem, printer: PrinterFactor
         source_sha256=model.source_sha256, depsim_version=depsim_version,
         sizes=sizes, tables=tables,
         t_end=model.simulation.t_end, tol=model.simulation.tol, dt_out=model.simulation.dt_out,
-        functions=tuple(lower_function(system, spec, printer) for spec in function_specs(system)),
+        functions=tuple(lower_function(system, spec, ieee_printer if ieee_printer is not None
+                                       and spec.name in IEEE_FUNCTIONS else printer)
+                        for spec in function_specs(system)),
     )

@@ -2,13 +2,16 @@
 
 `SlotPrinter` is the language-neutral part (slots, temporaries, exact doubles, the free-symbol
 check); a backend combines it with a sympy code printer. The NumPy module uses `PythonPrinter`
-(scalar `math` functions); the C backend combines the same mixin with sympy's C99 printer."""
+(scalar `math` functions), and `IeeePrinter` (numpy.float64 scalars) for the functions whose
+expressions the user writes freely; the C backend combines the same mixin with sympy's C99
+printer."""
 
 from __future__ import annotations
 
 from collections.abc import Collection, Mapping
 
 import sympy
+from sympy.printing.numpy import NumPyPrinter
 from sympy.printing.pycode import PythonCodePrinter
 
 
@@ -44,3 +47,13 @@ class PythonPrinter(SlotPrinter, PythonCodePrinter):
     def __init__(self, slots: Mapping[sympy.Symbol, str],
                  temporaries: Collection[sympy.Symbol] = ()):
         super().__init__(slots, temporaries, {"strict": True, "standard": "python3"})
+
+
+class IeeePrinter(SlotPrinter, NumPyPrinter):
+    """Python source over numpy.float64 scalars: `numpy.sqrt`, `numpy.log`, ... A value outside
+    a function's domain or a division by zero gives nan or inf, as in C, not an exception (the
+    generated function evaluates under numpy.errstate(all="ignore"))."""
+
+    def __init__(self, slots: Mapping[sympy.Symbol, str],
+                 temporaries: Collection[sympy.Symbol] = ()):
+        super().__init__(slots, temporaries, {"strict": True})

@@ -288,6 +288,29 @@ static void solver_lines(const dep_model *m, const dep_result *r, text *out)
     }
 }
 
+/* One warning per output that is not finite at some output time: its expression left its
+   functions' domain (both targets compute outputs with IEEE arithmetic: nan, inf). */
+static void output_lines(const dep_model *m, const dep_result *r, text *out)
+{
+    for (int k = 0; k < r->nout; ++k) {
+        int bad = 0, first = -1;
+        for (int i = 0; i < r->n; ++i) {
+            double y = r->outputs[(size_t)i * (size_t)r->nout + (size_t)k];
+            if (!isfinite(y)) {
+                first = first < 0 ? i : first;
+                ++bad;
+            }
+        }
+        if (bad) {
+            double y = r->outputs[(size_t)first * (size_t)r->nout + (size_t)k];
+            put(out, "  warning: output %s is %s at %d of %d output times, first at t = %.9g s: "
+                "its expression leaves its domain there (sqrt or log of a negative number, "
+                "acos or asin beyond 1, a division by zero)\n", m->output_names[k],
+                isnan(y) ? "nan" : "infinite", bad, r->n, r->times[first]);
+        }
+    }
+}
+
 static int report(const dep_model *m, dep_result *r)
 {
     text out = {NULL, 0, 0, 0};
@@ -296,6 +319,7 @@ static int report(const dep_model *m, dep_result *r)
     deployment_lines(m, r, &out);
     load_lines(m, r, &out);
     solver_lines(m, r, &out);
+    output_lines(m, r, &out);
     if (out.failed) {
         free(out.data);
         return DEP_MEMORY_ERROR;

@@ -152,12 +152,21 @@ def hinge_properties(p):
 
 def outputs(q, qd, t, p):
     """The named outputs, shape (NOUT,)."""
+    # IEEE arithmetic, as in C: nan or inf outside a function's domain, never an exception
+    q = numpy.asarray(q, dtype=numpy.float64)
+    qd = numpy.asarray(qd, dtype=numpy.float64)
+    p = numpy.asarray(p, dtype=numpy.float64)
+    with numpy.errstate(all="ignore"):
+        return _outputs(q, qd, t, p)
+
+
+def _outputs(q, qd, t, p):
     x0 = 0.5*p[0]
     y = numpy.zeros((4,))
     y[0] = p[4] + q[2]
     y[1] = qd[2]
-    y[2] = q[0] + x0*math.cos(q[2])
-    y[3] = q[1] + x0*math.sin(q[2])
+    y[2] = q[0] + x0*numpy.cos(q[2])
+    y[3] = q[1] + x0*numpy.sin(q[2])
     return y
 
 
