@@ -114,6 +114,9 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--dt-out", type=_positive_float, metavar="DT", help="output interval (s)")
     run.add_argument("--tol", type=_tolerance, metavar="TOL",
                      help="integration tolerance, between 0 and 1")
+    run.add_argument("--max-steps", type=_positive_float, metavar="N",
+                     help="the most steps the run may take (default 1e6); a stiff run that "
+                          "would need more stops at once")
     run.add_argument("-o", "--out", metavar="CSV", help="write outputs to a CSV file")
     run.add_argument("--summary", metavar="JSON", help="write a JSON run summary")
     run.add_argument("--plot", metavar="PNG", help="plot every output against time (.png, "
@@ -268,7 +271,7 @@ def _run(args) -> int:
     sim = model.compile(target=args.target)
     try:
         result = sim.run(set=settings, t_end=args.t_end, dt_out=args.dt_out, tol=args.tol,
-                         progress=True)
+                         progress=True, max_steps=args.max_steps)
     except ValueError as exc:  # a setting the runtime refuses (simulate's documented ValueError)
         raise _usage(str(exc)) from exc
     with all_or_none():

@@ -235,19 +235,20 @@ static int step_budget(dep_run *run, double h)
                  "%.4g s left would take about %.3g more steps, over max_steps = %.0f", rate,
                  1.0 / rate, moving_most(run, rk->mode + run->nq), h, span, left, limit);
         snprintf(hint, sizeof hint, "soften what moves it (a hinge or latch stiffness, a "
-                 "beam's EA or EI, or fewer beam elements), or raise max_steps to run it as it "
-                 "is");
+                 "beam's EA or EI, or fewer beam elements), or raise max_steps (--max-steps) to "
+                 "run it as it is");
     } else if (run->grind_steps >= GRIND_STEPS) {
         snprintf(what, sizeof what, "the step has been about %.3g s for %d steps, with %s "
                  "moving most: the %.4g s left would take about %.3g more steps, over "
                  "max_steps = %.0f", h, run->grind_steps, moving_most(run, s->qd), span, left,
                  limit);
         snprintf(hint, sizeof hint, "a motion this fast needs steps this small; check the "
-                 "model's stiffnesses and initial rates, shorten t_end, or raise max_steps");
+                 "model's stiffnesses and initial rates, shorten t_end, or raise max_steps "
+                 "(--max-steps)");
     } else {
         snprintf(what, sizeof what, "max_steps = %.0f steps taken, with %.4g s left at steps "
                  "of about %.3g s (%s moving most)", limit, span, h, moving_most(run, s->qd));
-        snprintf(hint, sizeof hint, "raise max_steps, or shorten t_end");
+        snprintf(hint, sizeof hint, "raise max_steps (--max-steps), or shorten t_end");
     }
     return dep_solver_error(run->error, 1, s->t, "step size", NULL, NULL, 0, 0.0, what, hint);
 }

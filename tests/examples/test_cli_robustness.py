@@ -323,3 +323,29 @@ def test_a_killed_sweep_takes_its_workers_with_it(tmp_path):
         with contextlib.suppress(ProcessLookupError):
             os.killpg(sweep.pid, signal.SIGKILL)
         sweep.wait()
+
+
+# --- runs that would grind ------------------------------------------------------------------
+
+STIFF = """model stiff_pair "a double pendulum whose second hinge is stiff and heavily damped"
+gravity = (0, -9.81) m/s^2
+bar upper { length = 1 m; mass = 2 kg; inertia = 2 kg*m^2/12 }
+bar lower { length = 1 m; mass = 2 kg; inertia = 2 kg*m^2/12 }
+hinge h1 joins ground.origin to upper.a { }
+hinge h2 joins upper.b to lower.a { stiffness = 1e6 N*m/rad; damping = 1e5 N*m*s/rad }
+initial { h1 = 30 deg }
+simulate { t_end = 10 s; tol = 1e-8; dt_out = 0.01 s }
+output theta1 = h1
+"""
+
+
+def test_a_stiff_run_stops_early_and_max_steps_lets_it_run(cli, tmp_path):
+    model = tmp_path / "stiff_pair.dep"
+    model.write_text(STIFF)
+    done = cli("run", model, "-o", tmp_path / "o.csv")
+    assert done.returncode == 3 and "Traceback" not in done.stderr
+    assert "the model is stiff here" in done.stderr and "--max-steps" in done.stderr
+    assert not (tmp_path / "o.csv").exists()
+    done = cli("run", model, "--t-end", "0.05", "--max-steps", "2e6", "-o", tmp_path / "o.csv")
+    assert done.returncode == 0, done.stderr
+    assert float((tmp_path / "o.csv").read_text().splitlines()[-1].split(",")[0]) == 0.05
