@@ -6,7 +6,8 @@ Each placement puts its child member so that the joint's two attachment points c
 hinge, turned by its initial angle) or lie `initial_position` apart along the axis (a slider,
 whose child keeps its parent's angle). Every joint's initial value enters as an auxiliary
 symbol first, so that qd0 = sum_k (dq0/dvalue_k) rate_k; the symbols are then replaced by the
-joints' initial values (expressions of p)."""
+joints' initial values (expressions of p). Kept as symbols, they make the tree pose q(v) and its
+Jacobian, from which the integrator core assembles closed loops (docs/language.md, Assembly)."""
 
 from __future__ import annotations
 
@@ -23,11 +24,19 @@ Pose = dict[sympy.Symbol, sympy.Expr]
 
 @dataclass(frozen=True)
 class Assembly:
-    """The initial state as expressions of p: q0, qd0 (NQ each) and each beam's angle (rad)."""
+    """The initial state as expressions of p: q0, qd0 (NQ each) and each beam's angle (rad);
+    the tree joints (placement order) with their value symbols v, the pose q(v) over them,
+    their initial values v0 and rates vd0 (expressions of p) and what the user gave (held)."""
 
     q0: tuple[sympy.Expr, ...]
     qd0: tuple[sympy.Expr, ...]
     beam_angles: tuple[sympy.Expr, ...]
+    tree_joints: tuple[str, ...]
+    v: tuple[sympy.Symbol, ...]
+    pose: tuple[sympy.Expr, ...]
+    v0: tuple[sympy.Expr, ...]
+    vd0: tuple[sympy.Expr, ...]
+    held: tuple[int, ...]
 
 
 @dataclass
@@ -56,7 +65,13 @@ def assemble(model: ir.Model, kin: Kinematics) -> Assembly:
     qd0 = [sympy.Add(*(x.diff(v) * rate for v, (_, rate) in state.values.items())) for x in q0]
     initial = {v: value for v, (value, _) in state.values.items()}
     angles = [state.beam_angles[i] for i in range(len(model.beams))]
-    return Assembly(*(tuple(x.xreplace(initial) for x in column) for column in (q0, qd0, angles)))
+    joints = [model.hinges[p.joint] if p.kind is ir.JointKind.HINGE else model.sliders[p.joint]
+              for p in model.placements]
+    return Assembly(*(tuple(x.xreplace(initial) for x in column) for column in (q0, qd0, angles)),
+                    tree_joints=tuple(j.name for j in joints), v=tuple(state.values),
+                    pose=tuple(q0), v0=tuple(value for value, _ in state.values.values()),
+                    vd0=tuple(rate for _, rate in state.values.values()),
+                    held=tuple(j.held for j in joints))
 
 
 def _joint_value(kin: Kinematics, joint: ir.Hinge | ir.Slider, initial: ir.Expr,

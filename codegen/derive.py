@@ -61,6 +61,15 @@ class SymbolicSystem:
     dissipation: ImmutableMatrix  # (ND, 1), W
     q0: ImmutableMatrix  # (NQ, 1), a function of p
     qd0: ImmutableMatrix  # (NQ, 1), a function of p
+    tree_joints: tuple[str, ...]  # NV joints placing the members, in placement order
+    tree_held: tuple[int, ...]  # NV: 1 value given, 2 rate given (held by the assembly)
+    v: tuple[sympy.Symbol, ...]  # their values (rad or m)
+    tree_v0: ImmutableMatrix  # (NV, 1) given values, else 0; a function of p
+    tree_vd0: ImmutableMatrix  # (NV, 1) given rates, else 0
+    tree_pose: ImmutableMatrix  # (NQ, 1) q placed along the tree, a function of v and p
+    tree_jacobian: ImmutableMatrix  # (NQ, NV)
+    loop_angles: ImmutableMatrix  # (NH, 1) given initial angle of a loop-closing hinge, else nan
+    loop_rates: ImmutableMatrix  # (NH, 1) its given rate, else nan
 
 
 def column(values) -> ImmutableMatrix:
@@ -115,8 +124,21 @@ def derive(model: ir.Model) -> SymbolicSystem:
         outputs=column(_output(o, kin) for o in model.outputs),
         energy_names=loads.energy_names, energy=column(loads.energies),
         dissipator_names=loads.dissipator_names, dissipation=column(loads.dissipation),
-        q0=column(q0), qd0=column(qd0),
+        q0=column(q0), qd0=column(qd0), tree_joints=assembly.tree_joints,
+        tree_held=assembly.held, v=assembly.v, tree_v0=column(assembly.v0),
+        tree_vd0=column(assembly.vd0), tree_pose=column(assembly.pose),
+        tree_jacobian=jacobian(column(assembly.pose), assembly.v),
+        loop_angles=_loop_targets(model, kin, 1), loop_rates=_loop_targets(model, kin, 2),
     )
+
+
+def _loop_targets(model: ir.Model, kin: Kinematics, held: int) -> ImmutableMatrix:
+    """Per hinge: the given initial angle (held = 1) or rate (2) of a hinge that closes a loop
+    and was given it; nan for every other hinge."""
+    loops = {index for kind, index in model.loop_joints if kind is ir.JointKind.HINGE}
+    return column(kin.const(h.initial_angle if held == 1 else h.initial_rate)
+                  if i in loops and h.held & held else sympy.nan
+                  for i, h in enumerate(model.hinges))
 
 
 _NOT_FINITE = (sympy.zoo, sympy.oo, -sympy.oo, sympy.nan)

@@ -106,7 +106,10 @@ def function_specs(system: SymbolicSystem) -> tuple[FunctionSpec, ...]:
     arguments, results, summaries), each with the system's matrices for its results."""
     s = system
     matrices = {
-        "mass_matrix": (s.mass_matrix,), "initial_state": (s.q0, s.qd0), "phi": (s.phi,),
+        "mass_matrix": (s.mass_matrix,), "initial_state": (s.q0, s.qd0),
+        "tree_values": (s.tree_v0, s.tree_vd0), "tree_pose": (s.tree_pose,),
+        "tree_jacobian": (s.tree_jacobian,),
+        "loop_targets": (s.loop_angles, s.loop_rates), "phi": (s.phi,),
         "phi_q": (column(s.phi_q[i, j] for i, j in s.phi_q_pattern),), "phi_t": (s.phi_t,),
         "gamma": (s.gamma,), "force": (s.force,), "hinge_angles": (s.hinge_angles,),
         "hinge_rates": (s.hinge_rates,), "hinge_jacobian": (s.hinge_jacobian,),
@@ -121,7 +124,7 @@ def function_specs(system: SymbolicSystem) -> tuple[FunctionSpec, ...]:
 
 def slots(system: SymbolicSystem, args: tuple[str, ...]) -> dict[sympy.Symbol, str]:
     """Input symbol -> array slot text (`q[3]`, `p[7]`, `t`) for a function's arguments."""
-    arrays = {"q": system.q, "qd": system.qd, "p": system.p}
+    arrays = {"v": system.v, "q": system.q, "qd": system.qd, "p": system.p}
     table = {system.t: "t"} if "t" in args else {}
     for name in args:
         table.update({s: f"{name}[{i}]" for i, s in enumerate(arrays.get(name, ()))})
@@ -196,6 +199,7 @@ def lower_module(model: ir.Model, system: SymbolicSystem, printer: PrinterFactor
         "HINGE_PROPERTIES": HINGE_PROPERTIES, "SLIDERS": system.slider_names,
         "OUTPUTS": system.output_names, "OUTPUT_UNITS": tuple(o.unit for o in model.outputs),
         "ENERGIES": system.energy_names, "DISSIPATORS": system.dissipator_names,
+        "TREE_JOINTS": system.tree_joints, "TREE_HELD": system.tree_held,
     }
     tables = tuple(TableView(t.constant, t.field, t.ctype, values[t.constant])
                    for t in interface.TABLES)

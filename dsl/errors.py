@@ -65,6 +65,7 @@ CODES: dict[str, str] = {
     "E043": "cable angles name something that is not a hinge",
     "E044": "cable angles are not a linear combination of hinge angles",
     "E045": "initial value for something that is not a joint",
+    "E046": "initial value of a slider that closes a kinematic loop",
     # warnings
     "W001": "member has no joint path to the ground",
     "W002": "parameter never used",

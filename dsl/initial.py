@@ -32,6 +32,11 @@ class InitialValues:
     def get(self, joint: str, suffix: str) -> Expr | None:
         return self.values.get((joint, suffix))
 
+    def span_of(self, joint: str) -> Span | None:
+        """Where the first initial value of `joint` was given."""
+        found = [span for (name, _), span in self.spans.items() if name == joint]
+        return min(found, key=lambda s: (s.line, s.col)) if found else None
+
     def read(self, statement: InitialStmt, symbols: SymbolTable,
              reader: AttributeReader) -> None:
         for item in statement.block.items:

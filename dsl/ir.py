@@ -275,6 +275,7 @@ class Hinge:
     initial_angle: Expr  # rad
     initial_rate: Expr  # rad/s
     span: Span
+    held: int = 0  # the assembly holds: 1 its initial angle (given), 2 its rate, 3 both
 
 
 @dataclass(frozen=True, slots=True)
@@ -289,6 +290,7 @@ class Slider:
     initial_position: Expr  # m
     initial_rate: Expr  # m/s
     span: Span
+    held: int = 0  # the assembly holds: 1 its initial position (given), 2 its rate, 3 both
 
 
 @dataclass(frozen=True, slots=True)

@@ -16,8 +16,8 @@ from .errors import Reporter, at, file_span, sort_key
 from .evaluate import EvaluationError, Typed, evaluate, param_indices
 from .expressions import Context, ExprResolver, ParamInfo
 from .initial import InitialValues
-from .ir import (Beam, Body, Cable, Expr, Ground, Hinge, Model, Num, Output, Param, ParamKind,
-                 Simulation, Slider)
+from .ir import (Beam, Body, Cable, Expr, Ground, Hinge, JointKind, Model, Num, Output, Param,
+                 ParamKind, Simulation, Slider)
 from .joints import resolve_cable, resolve_hinge, resolve_slider
 from .members import check_element_total, resolve_gravity, resolve_ground, resolve_member
 from .names import collect_symbols
@@ -208,16 +208,19 @@ class _ModelBuilder:
         assert self.gravity is not None and all(None not in p for p in parts), \
             "an element failed without an error"
         hinges = tuple(Hinge(**h, initial_angle=self._initial(h["name"], "initial_angle"),
-                             initial_rate=self._initial(h["name"], "initial_rate"))
+                             initial_rate=self._initial(h["name"], "initial_rate"),
+                             held=self._held(h["name"], "initial_angle"))
                        for h in self.hinges)
         sliders = tuple(Slider(**s, initial_position=self._initial(s["name"], "initial_position"),
-                               initial_rate=self._initial(s["name"], "initial_rate"))
+                               initial_rate=self._initial(s["name"], "initial_rate"),
+                               held=self._held(s["name"], "initial_position"))
                         for s in self.sliders)
         bodies = tuple(m for m in self.members if isinstance(m, Body))
         beams = tuple(m for m in self.members if isinstance(m, Beam))
         members = [(s.member, s.describe(), s.span)
                    for s in self.symbols.of_kind("bar", "body", "beam")]
         placements, loops = assemble(hinges, sliders, members, self.report)
+        self._check_loop_sliders(sliders, loops)
         if not members:
             self.report.warning("W004", "the model has no bodies or beams",
                                 self.source.statements[0].span)
@@ -236,6 +239,26 @@ class _ModelBuilder:
     def _initial(self, joint: str, suffix: str) -> Expr:
         value = self.initial.get(joint, suffix)
         return Num(0.0) if value is None else value
+
+    def _held(self, joint: str, value_suffix: str) -> int:
+        """What of a joint's initial state the user gave, so the assembly holds it: 1 its
+        value, 2 its rate (docs/language.md, Assembly)."""
+        return ((self.initial.get(joint, value_suffix) is not None)
+                | 2 * (self.initial.get(joint, "initial_rate") is not None))
+
+    def _check_loop_sliders(self, sliders, loops) -> None:
+        """A slider that closes a loop has no coordinate of its own in the assembly: its
+        initial value follows from the loop and cannot be held (E046)."""
+        for kind, index in loops:
+            if kind is JointKind.SLIDER and sliders[index].held:
+                name = sliders[index].name
+                which = "its position" if sliders[index].held & 1 else "its rate"
+                self.report.error(
+                    "E046", f"slider '{name}' closes a kinematic loop, so {which} follows from "
+                    "the loop and cannot be given",
+                    self.initial.span_of(name) or sliders[index].span,
+                    hint=f"leave {name} out of `initial`: the assembly solves it from the "
+                         "values given for the joints of the tree")
 
 
 def _keyword(statement) -> str:

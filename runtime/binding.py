@@ -80,7 +80,7 @@ class CModule:
 
     def _wrap(self, function: interface.Function):
         c_function = getattr(self.pointer, function.name)
-        lengths = {"q": self.NQ, "qd": self.NQ, "p": self.NP}
+        lengths = {"v": self.sizes["nv"], "q": self.NQ, "qd": self.NQ, "p": self.NP}
         shapes = [tuple(self.sizes[s] for s in r.shape) for r in function.results]
         view = ffi()
 
@@ -210,15 +210,15 @@ class NumpyModel:
         """values -> the module's arguments: q, qd as lists of floats, t as is, p as the
         run's parameter list (converted once per run: the core passes one p throughout)."""
         unpack, state = ffi().unpack, self._state
-        nq = self.sizes["nq"]
+        nq, nv = self.sizes["nq"], self.sizes["nv"]
 
         def parameters(pointer):
             if pointer != state.p_pointer:
                 state.p_pointer, state.p_list = pointer, unpack(pointer, self.sizes["np"])
             return state.p_list
 
-        converters = {"q": lambda c: unpack(c, nq), "qd": lambda c: unpack(c, nq),
-                      "t": None, "p": parameters}
+        converters = {"v": lambda c: unpack(c, nv), "q": lambda c: unpack(c, nq),
+                      "qd": lambda c: unpack(c, nq), "t": None, "p": parameters}
         steps = tuple(converters[name] for name in function.args)
         return lambda values: [c if s is None else s(c) for s, c in zip(steps, values)]
 

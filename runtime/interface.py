@@ -9,17 +9,18 @@ runtime/c equal to it), and the runtime fills a `dep_model` from a NumPy module 
 
     python -m depsim.runtime.interface > runtime/c/depsim_model.h    # after a change here
 
-Arrays are float64 in SI units; q, qd have NQ entries, p NP; t is the time (s). Matrices are
-row-major. A function writes every entry of its results (zeros included).
+Arrays are float64 in SI units; q, qd have NQ entries, p NP; t is the time (s); v holds the
+values of the assembly tree's joints (NV: angles, rad, and slider displacements, m). Matrices
+are row-major. A function writes every entry of its results (zeros included).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-ABI = 2  # DEP_MODEL_ABI: bumped whenever the dep_model struct changes
+ABI = 3  # DEP_MODEL_ABI: bumped whenever the dep_model struct changes
 
-ARGUMENTS = ("q", "qd", "t", "p")  # every function takes a subsequence of these, in this order
+ARGUMENTS = ("v", "q", "qd", "t", "p")  # every function takes a subsequence, in this order
 
 
 @dataclass(frozen=True, slots=True)
@@ -78,6 +79,7 @@ SIZES = (
     Size("nout", "OUTPUTS", "outputs"),
     Size("ne", "ENERGIES", "energy terms"),
     Size("nd", "DISSIPATORS", "dissipators"),
+    Size("nv", "TREE_JOINTS", "joints of the assembly tree"),
 )
 
 TABLES = (
@@ -98,6 +100,10 @@ TABLES = (
     Table("output_units", "OUTPUT_UNITS", "const char *const", "nout", ""),
     Table("energy_names", "ENERGIES", "const char *const", "ne", ""),
     Table("dissipator_names", "DISSIPATORS", "const char *const", "nd", ""),
+    Table("tree_joints", "TREE_JOINTS", "const char *const", "nv",
+          "the joints placing the members at t = 0, in placement order"),
+    Table("tree_held", "TREE_HELD", "const int", "nv",
+          "1: its initial value is given, 2: its rate, 3: both (held by the assembly)"),
 )
 
 SETTINGS = (("t_end", "T_END"), ("tol", "TOL"), ("dt_out", "DT_OUT"))
@@ -106,7 +112,15 @@ FUNCTIONS = (
     Function("mass_matrix", ("p",), (Output("M", ("nq", "nq")),),
              "Constant mass matrix M, shape (NQ, NQ)."),
     Function("initial_state", ("p",), (Output("q0", ("nq",)), Output("qd0", ("nq",))),
-             "Assembled initial pose and velocities (q0, qd0)."),
+             "Initial pose and velocities placed along the assembly tree (q0, qd0)."),
+    Function("tree_values", ("p",), (Output("v0", ("nv",)), Output("vd0", ("nv",))),
+             "The tree joints' initial values and rates (given, else 0)."),
+    Function("tree_pose", ("v", "p"), (Output("q", ("nq",)),),
+             "The pose placed along the assembly tree with joint values v, shape (NQ,)."),
+    Function("tree_jacobian", ("v", "p"), (Output("T", ("nq", "nv")),),
+             "d tree_pose / d v, shape (NQ, NV)."),
+    Function("loop_targets", ("p",), (Output("angle", ("nh",)), Output("rate", ("nh",))),
+             "Given initial angle and rate of each hinge closing a loop (nan: not given)."),
     Function("phi", ("q", "t", "p"), (Output("phi", ("nc",)),),
              "Constraint residuals Phi(q, t), shape (NC,)."),
     Function("phi_q", ("q", "t", "p"), (Output("phi_q", ("nnz",)),),
@@ -156,8 +170,8 @@ def check_module(module) -> None:
 
 # ---- the C header ----------------------------------------------------------------------------
 
-_C_ARGUMENTS = {"q": "const double *q", "qd": "const double *qd", "t": "double t",
-                "p": "const double *p"}
+_C_ARGUMENTS = {"v": "const double *v", "q": "const double *q", "qd": "const double *qd",
+                "t": "double t", "p": "const double *p"}
 
 
 def c_declaration(function: Function) -> str:

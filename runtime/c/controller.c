@@ -291,11 +291,12 @@ static double integral_factor(const dep_step_errors *e, double high)
     return exp(x);
 }
 
-/* fac = h_new / h: the factor for which err_lam fac^p + err_ode fac^5 = SAFETY, and after an accepted step the proportional-integral correction of Hairer's DOPRI5
-   (Lund stabilisation), (err^0.75 err_previous)^PI_BETA with err the sum of the errors: it
-   damps the alternation of accepted and rejected steps where the step is bounded by
-   stability rather than accuracy (a stiff friction damper). Clipped to [FAC_MIN, FAC_MAX]
-   (to 1 after a rejection). */
+/* fac = h_new / h: the factor for which err_lam fac^p + err_ode fac^5 = SAFETY, and after an
+   accepted step the proportional-integral correction of Hairer's DOPRI5 (Lund
+   stabilisation), (err^0.75 err_previous)^PI_BETA with err the sum of the errors: it damps
+   the alternation of accepted and rejected steps where the step is bounded by stability
+   rather than accuracy (a stiff friction damper). Clipped to [FAC_MIN, FAC_MAX] (to 1 after
+   a rejection). */
 double dep_step_factor(const dep_step_errors *errors, double err_previous, int accepted)
 {
     double high = accepted ? FAC_MAX : 1.0;

@@ -11,7 +11,7 @@
 #ifndef DEPSIM_MODEL_H
 #define DEPSIM_MODEL_H
 
-#define DEP_MODEL_ABI 2 /* bumped whenever this struct changes */
+#define DEP_MODEL_ABI 3 /* bumped whenever this struct changes */
 
 typedef struct dep_model {
     int abi; /* DEP_MODEL_ABI of the header the model was compiled with */
@@ -34,6 +34,7 @@ typedef struct dep_model {
     int nout; /* outputs */
     int ne; /* energy terms */
     int nd; /* dissipators */
+    int nv; /* joints of the assembly tree */
 
     /* tables (NULL when empty) */
     const char *const *coordinate_names; /* nq */
@@ -51,6 +52,8 @@ typedef struct dep_model {
     const char *const *output_units; /* nout */
     const char *const *energy_names; /* ne */
     const char *const *dissipator_names; /* nd */
+    const char *const *tree_joints; /* nv, the joints placing the members at t = 0, in placement order */
+    const int *tree_held; /* nv, 1: its initial value is given, 2: its rate, 3: both (held by the assembly) */
 
     /* the model's simulation settings */
     double t_end, tol, dt_out;
@@ -58,8 +61,16 @@ typedef struct dep_model {
     /* functions (docs/generated-module.md) */
     /* Constant mass matrix M, shape (NQ, NQ). */
     void (*mass_matrix)(const double *p, double *M);
-    /* Assembled initial pose and velocities (q0, qd0). */
+    /* Initial pose and velocities placed along the assembly tree (q0, qd0). */
     void (*initial_state)(const double *p, double *q0, double *qd0);
+    /* The tree joints' initial values and rates (given, else 0). */
+    void (*tree_values)(const double *p, double *v0, double *vd0);
+    /* The pose placed along the assembly tree with joint values v, shape (NQ,). */
+    void (*tree_pose)(const double *v, const double *p, double *q);
+    /* d tree_pose / d v, shape (NQ, NV). */
+    void (*tree_jacobian)(const double *v, const double *p, double *T);
+    /* Given initial angle and rate of each hinge closing a loop (nan: not given). */
+    void (*loop_targets)(const double *p, double *angle, double *rate);
     /* Constraint residuals Phi(q, t), shape (NC,). */
     void (*phi)(const double *q, double t, const double *p, double *phi);
     /* Values of Phi_q at (PHI_Q_ROWS, PHI_Q_COLS). */

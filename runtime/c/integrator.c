@@ -430,8 +430,8 @@ static int integrate_run(dep_run *run)
     double h;
     long long steps = 0;
     int status, stop = 0;
-    run->model->initial_state(run->p, run->q, run->qd);
-    if ((status = dep_run_start(run, run->q, run->qd)) != DEP_OK
+    if ((status = dep_run_assemble(run, run->q, run->qd)) != DEP_OK
+        || (status = dep_run_start(run, run->q, run->qd)) != DEP_OK
         || (status = dep_run_record_until(run, 0.0, NULL)) != DEP_OK
         || (status = dep_watch_reset(&run->watch, 0.0, run->state.q, run->state.qd, -1, 0.0,
                                      dep_run_rows(run, &run->state), run->error)) != DEP_OK) {

@@ -62,6 +62,7 @@ int dep_run_restart(dep_run *run, double t, const double *q, const double *qd,
                     const double *work, const char *stage);
 int dep_run_record_until(dep_run *run, double t_until, const dep_outcome *end);
 int dep_run_start(dep_run *run, const double *q0, const double *qd0);
+int dep_run_assemble(dep_run *run, double *q, double *qd); /* assembly.c */
 int dep_run_after_step(dep_run *run, int *stop);
 void dep_run_attach_prior(const dep_run *run, dep_outcome *end);
 const dep_active_rows *dep_run_rows(dep_run *run, const dep_state *state);

@@ -274,7 +274,8 @@ static void solver_lines(const dep_model *m, const dep_result *r, text *out)
     put(out, "  largest constraint residuals at steps: position %.1e, velocity %.1e, "
         "acceleration %.1e\n", s->max_v_pos, s->max_v_vel, s->max_v_acc);
     for (int e = 0; e < r->n_events; ++e) {
-        if (is_latch_event(m, r, r->events[e].name)) {
+        if (is_latch_event(m, r, r->events[e].name)
+            || strcmp(r->events[e].name, "assembly") == 0) {
             continue;
         }
         ++others;
@@ -285,6 +286,34 @@ static void solver_lines(const dep_model *m, const dep_result *r, text *out)
     }
     if (others > shown) {
         put(out, "  ... and %d more events (see the JSON summary)\n", others - shown);
+    }
+}
+
+/* "assembled at t = 0: knee = -33.06 deg (-2.468 rad/s), rest = 92.04 deg (0.6014 rad/s)" */
+static void assembly_line(const dep_model *m, const dep_result *r, text *out)
+{
+    for (int e = 0; e < r->n_events; ++e) {
+        const dep_event_record *record = &r->events[e];
+        if (strcmp(record->name, "assembly") != 0) {
+            continue;
+        }
+        put(out, "  assembled at t = 0 (the loops closed from the given initial values):");
+        int first = 1;
+        for (int i = 0; i < record->n_data; ++i) {
+            const dep_datum *d = &record->data[i];
+            if (strcmp(d->key, "values") != 0) {
+                continue;
+            }
+            int hinge = 0;
+            for (int h = 0; h < m->nh && !hinge; ++h) {
+                hinge = strcmp(m->hinge_names[h], d->member) == 0;
+            }
+            put(out, "%s %s = %.6g %s", first ? "" : ",", d->member,
+                hinge ? d->number * 180.0 / 3.14159265358979323846 : d->number,
+                hinge ? "deg" : "m");
+            first = 0;
+        }
+        put(out, "\n");
     }
 }
 
@@ -316,6 +345,7 @@ static int report(const dep_model *m, dep_result *r)
     text out = {NULL, 0, 0, 0};
     put(&out, "%s: %d output times to t = %.6g s (iterative, tol = %.1e)\n", m->name, r->n,
         r->n ? r->times[r->n - 1] : 0.0, r->tol);
+    assembly_line(m, r, &out);
     deployment_lines(m, r, &out);
     load_lines(m, r, &out);
     solver_lines(m, r, &out);

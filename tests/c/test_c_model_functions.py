@@ -29,7 +29,8 @@ def random_states(module, count=4, seed=11):
         p = np.array(module.PARAMETER_DEFAULTS) * rng.uniform(0.9, 1.1, module.NP)
         q0, _ = module.initial_state(p)
         q = q0 + 0.05 * rng.standard_normal(module.NQ)
-        yield q, rng.standard_normal(module.NQ), float(rng.uniform(0, 2)), p
+        v = module.tree_values(p)[0] + 0.1 * rng.standard_normal(len(module.TREE_JOINTS))
+        yield v, q, rng.standard_normal(module.NQ), float(rng.uniform(0, 2)), p
 
 
 def test_tables_and_settings_match(built):
@@ -41,8 +42,8 @@ def test_tables_and_settings_match(built):
 def test_functions_match_numpy(built, function):
     numpy_function, c_function = getattr(built.numpy, function), getattr(built.c, function)
     args = tuple(inspect.signature(numpy_function).parameters)
-    for q, qd, t, p in random_states(built.numpy):
-        values = {"q": q, "qd": qd, "t": t, "p": p}
+    for v, q, qd, t, p in random_states(built.numpy):
+        values = {"v": v, "q": q, "qd": qd, "t": t, "p": p}
         expected = numpy_function(*(values[a] for a in args))
         got = c_function(*(values[a] for a in args))
         for e, g in zip(*(x if isinstance(x, tuple) else (x,) for x in (expected, got))):

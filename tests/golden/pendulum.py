@@ -34,6 +34,8 @@ OUTPUTS = ('theta', 'omega', 'tip_x', 'tip_y')
 OUTPUT_UNITS = ('rad', 'rad/s', 'm', 'm')
 ENERGIES = ('kinetic', 'gravity')
 DISSIPATORS = ()
+TREE_JOINTS = ('pivot',)
+TREE_HELD = (3,)
 
 T_END = 10.0
 TOL = 1e-09
@@ -50,7 +52,7 @@ def mass_matrix(p):
 
 
 def initial_state(p):
-    """Assembled initial pose and velocities (q0, qd0)."""
+    """Initial pose and velocities placed along the assembly tree (q0, qd0)."""
     x0 = p[6] - p[4]
     x1 = 0.5*p[0]
     x2 = x1*math.cos(x0)
@@ -64,6 +66,46 @@ def initial_state(p):
     qd0[1] = p[7]*x2
     qd0[2] = p[7]
     return q0, qd0
+
+
+def tree_values(p):
+    """The tree joints' initial values and rates (given, else 0)."""
+    v0 = numpy.zeros((1,))
+    v0[0] = p[6]
+    vd0 = numpy.zeros((1,))
+    vd0[0] = p[7]
+    return v0, vd0
+
+
+def tree_pose(v, p):
+    """The pose placed along the assembly tree with joint values v, shape (NQ,)."""
+    x0 = p[4] - v[0]
+    x1 = 0.5*p[0]
+    q = numpy.zeros((3,))
+    q[0] = x1*math.cos(x0)
+    q[1] = -x1*math.sin(x0)
+    q[2] = -x0
+    return q
+
+
+def tree_jacobian(v, p):
+    """d tree_pose / d v, shape (NQ, NV)."""
+    x0 = p[4] - v[0]
+    x1 = 0.5*p[0]
+    T = numpy.zeros((3, 1))
+    T[0, 0] = x1*math.sin(x0)
+    T[1, 0] = x1*math.cos(x0)
+    T[2, 0] = 1
+    return T
+
+
+def loop_targets(p):
+    """Given initial angle and rate of each hinge closing a loop (nan: not given)."""
+    angle = numpy.zeros((1,))
+    angle[0] = math.nan
+    rate = numpy.zeros((1,))
+    rate[0] = math.nan
+    return angle, rate
 
 
 def phi(q, t, p):

@@ -48,6 +48,27 @@ def initial_state(p):
     return q, qd
 
 
+# Hand-made: the initial state is given whole, so there is no assembly tree (NV = 0).
+TREE_JOINTS = ()
+TREE_HELD = ()
+
+
+def tree_values(p):
+    return np.zeros(0), np.zeros(0)
+
+
+def tree_pose(v, p):
+    return initial_state(p)[0]
+
+
+def tree_jacobian(v, p):
+    return np.zeros((len(COORDINATES), 0))
+
+
+def loop_targets(p):
+    return np.full(len(HINGES), np.nan), np.full(len(HINGES), np.nan)
+
+
 def phi(q, t, p):
     L = p[0]
     return np.array([q[0] - L / 2 * np.cos(q[2]), q[1] - L / 2 * np.sin(q[2])])

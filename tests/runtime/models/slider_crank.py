@@ -65,6 +65,27 @@ def initial_state(p):
     return q, qd
 
 
+# Hand-made: the initial state is given whole, so there is no assembly tree (NV = 0).
+TREE_JOINTS = ()
+TREE_HELD = ()
+
+
+def tree_values(p):
+    return np.zeros(0), np.zeros(0)
+
+
+def tree_pose(v, p):
+    return initial_state(p)[0]
+
+
+def tree_jacobian(v, p):
+    return np.zeros((len(COORDINATES), 0))
+
+
+def loop_targets(p):
+    return np.full(len(HINGES), np.nan), np.full(len(HINGES), np.nan)
+
+
 def phi(q, t, p):
     r, l = p[0], p[1]
     x1, y1, a1, x2, y2, a2, x3, y3, a3 = q

@@ -1,0 +1,409 @@
+/* assembly.c: the initial state of a mechanism with closed loops (docs/language.md, Assembly).
+ *
+ * The model places its members along the assembly tree: q = tree_pose(v, p), v the values of
+ * the tree's joints (hinge angles, slider displacements). The values and rates the user gave
+ * are held (TREE_HELD); the others are free and start at 0. Where the tree leaves loops open,
+ * the free values are solved by Gauss-Newton, damped in Levenberg-Marquardt's way, on
+ *
+ *     Phi(q(v)) = 0   and, for each hinge that closes a loop and was given an angle,
+ *     theta(q(v)) = that angle,
+ *
+ * with the Jacobian [Phi_q; J_theta] T, T = d tree_pose / d v. The rates follow linearly:
+ * Phi_q T vd = -Phi_t (and J_theta T vd = a given loop rate), solved for the free rates by
+ * least squares of minimum norm, the held rates fixed. q = tree_pose(v) and qd = T vd are
+ * then consistent to round-off; values that cannot all hold are a SolverError naming them.
+ */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "runtime.h"
+
+#define MAX_ITERATIONS 100
+#define FIT 1e-13 /* |residual| counted as closed: FIT max(1, |q|) (round-off of a pose) */
+
+typedef struct assembly {
+    const dep_model *m;
+    const double *p;
+    dep_constraints *cs;
+    int nq, nv, nc, nh, nf, rows;   /* rows: nc + hinges with a loop target */
+    int *free, *target;             /* nf free joint indices; the hinges with a target */
+    double *v, *trial, *vd, *angles, *rates, *q, *T, *J, *H, *A, *N, *F, *g, *step, *theta;
+} assembly;
+
+/* The residual F(v) (rows) at the pose q(v), with T and the Jacobian A = [Phi_q; J_h] T[:,
+   free] when `jacobian`. Returns max |F|. */
+static double residual(assembly *x, const double *v, int jacobian)
+{
+    const dep_model *m = x->m;
+    int n_target = x->rows - x->nc;
+    m->tree_pose(v, x->p, x->q);
+    dep_cs_phi(x->cs, x->q, 0.0, x->F);
+    if (n_target > 0) {
+        m->hinge_angles(x->q, x->p, x->theta);
+        for (int k = 0; k < n_target; ++k) {
+            x->F[x->nc + k] = x->theta[x->target[k]] - x->angles[x->target[k]];
+        }
+    }
+    double largest = 0.0;
+    for (int i = 0; i < x->rows; ++i) {
+        largest = fmax(largest, fabs(x->F[i]));
+    }
+    if (!jacobian) {
+        return largest;
+    }
+    m->tree_jacobian(v, x->p, x->T);
+    dep_cs_jacobian(x->cs, x->q, 0.0, x->J);
+    if (n_target > 0) {
+        m->hinge_jacobian(x->q, x->p, x->H);
+    }
+    for (int i = 0; i < x->rows; ++i) {
+        const double *row = i < x->nc ? x->J + (size_t)i * x->nq
+                                      : x->H + (size_t)x->target[i - x->nc] * x->nq;
+        for (int c = 0; c < x->nf; ++c) {
+            double sum = 0.0;
+            for (int j = 0; j < x->nq; ++j) {
+                sum += row[j] * x->T[(size_t)j * x->nv + x->free[c]];
+            }
+            x->A[(size_t)i * x->nf + c] = sum;
+        }
+    }
+    return largest;
+}
+
+/* Solve (A^T A + damping diag(A^T A) + floor I) s = A^T b for s (nf) by Cholesky; the
+   regularised normal equations give the least-squares solution of minimum norm as the
+   damping and floor vanish. */
+static void normal_solve(assembly *x, const double *b, double damping, double *s)
+{
+    int n = x->nf;
+    double *N = x->N, largest = 0.0;
+    for (int r = 0; r < n; ++r) {
+        for (int c = 0; c <= r; ++c) {
+            double sum = 0.0;
+            for (int i = 0; i < x->rows; ++i) {
+                sum += x->A[(size_t)i * n + r] * x->A[(size_t)i * n + c];
+            }
+            N[(size_t)r * n + c] = sum;
+        }
+        largest = fmax(largest, N[(size_t)r * n + r]);
+    }
+    for (int r = 0; r < n; ++r) {
+        double sum = 0.0;
+        for (int i = 0; i < x->rows; ++i) {
+            sum += x->A[(size_t)i * n + r] * b[i];
+        }
+        s[r] = sum;
+        N[(size_t)r * n + r] += damping * N[(size_t)r * n + r] + 1e-14 * fmax(largest, 1e-300);
+    }
+    for (int c = 0; c < n; ++c) { /* Cholesky, lower triangle in place */
+        double d = N[(size_t)c * n + c];
+        for (int k = 0; k < c; ++k) {
+            d -= N[(size_t)c * n + k] * N[(size_t)c * n + k];
+        }
+        d = sqrt(fmax(d, 1e-300));
+        N[(size_t)c * n + c] = d;
+        for (int r = c + 1; r < n; ++r) {
+            double e = N[(size_t)r * n + c];
+            for (int k = 0; k < c; ++k) {
+                e -= N[(size_t)r * n + k] * N[(size_t)c * n + k];
+            }
+            N[(size_t)r * n + c] = e / d;
+        }
+    }
+    for (int r = 0; r < n; ++r) {
+        for (int k = 0; k < r; ++k) {
+            s[r] -= N[(size_t)r * n + k] * s[k];
+        }
+        s[r] /= N[(size_t)r * n + r];
+    }
+    for (int r = n - 1; r >= 0; --r) {
+        for (int k = r + 1; k < n; ++k) {
+            s[r] -= N[(size_t)k * n + r] * s[k];
+        }
+        s[r] /= N[(size_t)r * n + r];
+    }
+}
+
+/* "crank_pin = 1.5708 rad, wrist.rate = 0 rad/s, ..." : what the user gave (rates when
+   `rates`), for messages. */
+static void given_text(const assembly *x, const dep_run *run, int rates, char *out,
+                       size_t size)
+{
+    const dep_model *m = x->m;
+    size_t used = 0;
+    out[0] = '\0';
+    for (int k = 0; k < x->nv && used < size; ++k) {
+        if (m->tree_held[k] & (rates ? 2 : 1)) {
+            used += (size_t)snprintf(out + used, size - used, "%s%s%s = %.6g", used ? ", " : "",
+                                     m->tree_joints[k], rates ? ".rate" : "",
+                                     rates ? x->vd[k] : x->v[k]);
+        }
+    }
+    for (int h = 0; h < x->nh && used < size; ++h) {
+        double value = rates ? x->rates[h] : x->angles[h];
+        if (isfinite(value)) {
+            used += (size_t)snprintf(out + used, size - used, "%s%s%s = %.6g", used ? ", " : "",
+                                     m->hinge_names[h], rates ? ".rate" : "", value);
+        }
+    }
+    if (used == 0) {
+        snprintf(out, size, "none");
+    }
+    (void)run;
+}
+
+/* The failing row of F: its name and joint for the message. */
+static int worst_row(const assembly *x)
+{
+    int worst = 0;
+    for (int i = 1; i < x->rows; ++i) {
+        if (fabs(x->F[i]) > fabs(x->F[worst])) {
+            worst = i;
+        }
+    }
+    return worst;
+}
+
+static int fail(assembly *x, dep_run *run, int rates, double gap)
+{
+    char given[300], what[512], joint[DEP_NAME_MAX + 16] = "", row[DEP_NAME_MAX + 8] = "";
+    int worst = worst_row(x);
+    given_text(x, run, rates, given, sizeof given);
+    if (worst < x->nc) {
+        dep_cs_describe(x->cs, worst, joint, sizeof joint);
+        dep_copy_text(row, sizeof row, x->cs->row_names[worst]);
+    } else {
+        snprintf(joint, sizeof joint, "hinge %s", x->m->hinge_names[x->target[worst - x->nc]]);
+    }
+    snprintf(what, sizeof what, "the given initial %s cannot all hold: %s; the loops stay open "
+             "by %.3g at %s", rates ? "rates" : "values", given, gap, joint);
+    return dep_solver_error(run->error, 1, 0.0, "initial state", row[0] ? row : NULL, joint, 1,
+                            gap, what, "give fewer initial values (only those that drive the "
+                            "mechanism), or values that close its loops");
+}
+
+/* Records "assembly": the free joints' solved values and rates. */
+static int record(assembly *x, dep_run *run)
+{
+    dep_datum data[2 * DEP_MAX_ADDED];
+    int n = 0, capacity = (int)(sizeof data / sizeof data[0]);
+    for (int c = 0; c < x->nf; ++c) {
+        const char *name = x->m->tree_joints[x->free[c]];
+        if (!(x->m->tree_held[x->free[c]] & 1)) {
+            dep_datum *d = dep_datum_add(data, &n, capacity, "values", name);
+            if (d != NULL) {
+                d->kind = DEP_NUMBER;
+                d->number = x->v[x->free[c]];
+            }
+        }
+        if (!(x->m->tree_held[x->free[c]] & 2)) {
+            dep_datum *d = dep_datum_add(data, &n, capacity, "rates", name);
+            if (d != NULL) {
+                d->kind = DEP_NUMBER;
+                d->number = x->vd[x->free[c]];
+            }
+        }
+    }
+    return dep_run_add_record(run, "assembly", 0.0, data, n);
+}
+
+/* The velocities: least squares of minimum norm for the free rates (every tree joint whose
+   rate was not given), the held rates fixed. */
+static int assemble_rates(assembly *x, dep_run *run)
+{
+    const dep_model *m = x->m;
+    int n_target = 0;
+    for (int h = 0; h < x->nh; ++h) {
+        if (isfinite(x->rates[h])) {
+            x->target[n_target++] = h;
+        }
+    }
+    x->rows = x->nc + n_target;
+    x->nf = 0;
+    for (int k = 0; k < x->nv; ++k) {
+        if (!(m->tree_held[k] & 2)) {
+            x->free[x->nf++] = k;
+            x->vd[k] = 0.0;
+        }
+    }
+    residual(x, x->v, 1); /* T, J, H and A at the assembled pose (F unused) */
+    double *b = x->F, *qd = x->trial;
+    for (int j = 0; j < x->nq; ++j) { /* the held rates' velocities */
+        qd[j] = 0.0;
+        for (int k = 0; k < x->nv; ++k) {
+            qd[j] += x->T[(size_t)j * x->nv + k] * x->vd[k];
+        }
+    }
+    dep_cs_phi_t(x->cs, x->q, 0.0, b);
+    for (int i = 0; i < x->rows; ++i) {
+        const double *row = i < x->nc ? x->J + (size_t)i * x->nq
+                                      : x->H + (size_t)x->target[i - x->nc] * x->nq;
+        double sum = 0.0;
+        for (int j = 0; j < x->nq; ++j) {
+            sum += row[j] * qd[j];
+        }
+        b[i] = i < x->nc ? -b[i] - sum : x->rates[x->target[i - x->nc]] - sum;
+    }
+    if (x->nf > 0) {
+        normal_solve(x, b, 0.0, x->step);
+        for (int c = 0; c < x->nf; ++c) {
+            x->vd[x->free[c]] = x->step[c];
+        }
+    }
+    double gap = 0.0, scale = 1.0;
+    for (int i = 0; i < x->rows; ++i) {
+        double sum = -b[i];
+        for (int c = 0; c < x->nf; ++c) {
+            sum += x->A[(size_t)i * x->nf + c] * x->step[c];
+        }
+        x->F[i] = sum;
+        gap = fmax(gap, fabs(sum));
+        scale = fmax(scale, fabs(b[i]));
+    }
+    if (gap > 1e-3 * run->settings.tol * scale) {
+        return fail(x, run, 1, gap);
+    }
+    return DEP_OK;
+}
+
+/* The free values by damped Gauss-Newton from the tree placement. */
+static int assemble_values(assembly *x, dep_run *run)
+{
+    const dep_model *m = x->m;
+    double damping = 1e-3, size = 1.0;
+    double error = residual(x, x->v, 1);
+    for (int j = 0; j < x->nq; ++j) {
+        size = fmax(size, fabs(x->q[j]));
+    }
+    for (int iteration = 0; iteration < MAX_ITERATIONS && error > FIT * size; ++iteration) {
+        if (x->nf == 0) {
+            break;
+        }
+        for (int i = 0; i < x->rows; ++i) {
+            x->g[i] = -x->F[i];
+        }
+        int improved = 0;
+        for (int attempt = 0; attempt < 12 && !improved; ++attempt) {
+            normal_solve(x, x->g, damping, x->step);
+            memcpy(x->trial, x->v, (size_t)x->nv * sizeof *x->trial);
+            for (int c = 0; c < x->nf; ++c) {
+                x->trial[x->free[c]] += x->step[c];
+            }
+            double trial_error = residual(x, x->trial, 0);
+            if (trial_error < error) {
+                memcpy(x->v, x->trial, (size_t)x->nv * sizeof *x->v);
+                damping = fmax(damping / 10, 1e-12);
+                improved = 1;
+            } else {
+                damping *= 10;
+            }
+        }
+        if (!improved) {
+            break;
+        }
+        error = residual(x, x->v, 1);
+    }
+    error = residual(x, x->v, 0);
+    if (!(error <= 1e-3 * run->settings.tol * size)) {
+        return fail(x, run, 0, error);
+    }
+    (void)m;
+    return DEP_OK;
+}
+
+/* Whether the tree placement (q, qd) already satisfies every constraint level and loop
+   target to round-off. */
+static int closed(assembly *x, const double *q, const double *qd)
+{
+    double size = 1.0, speed = 1.0;
+    for (int j = 0; j < x->nq; ++j) {
+        size = fmax(size, fabs(q[j]));
+        speed = fmax(speed, fabs(qd[j]));
+    }
+    if (residual(x, x->v, 0) > FIT * size) {
+        return 0;
+    }
+    double *rate = x->theta, *J = x->J, *v = x->F;
+    dep_cs_jacobian(x->cs, q, 0.0, J);
+    dep_cs_v_vel(x->cs, q, qd, 0.0, J, v); /* -(Phi_q qd + Phi_t) */
+    for (int i = 0; i < x->nc; ++i) {
+        if (fabs(v[i]) > FIT * speed) {
+            return 0;
+        }
+    }
+    x->m->hinge_rates(q, qd, x->p, rate);
+    for (int h = 0; h < x->nh; ++h) {
+        if (isfinite(x->rates[h]) && fabs(rate[h] - x->rates[h]) > FIT * speed) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+/* q, qd (nq each) from the model's initial values: the tree placement when it closes every
+   loop (or there is none), else the assembly above; an "assembly" record tells what it did. */
+int dep_run_assemble(dep_run *run, double *q, double *qd)
+{
+    const dep_model *m = run->model;
+    assembly x = {m, run->p, &run->cs, m->nq, m->nv, run->cs.nc, m->nh, 0, 0,
+                  NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL,
+                  NULL, NULL, NULL, NULL, NULL};
+    dep_arena *arena = &run->arena;
+    size_t nv = (size_t)m->nv, nq = (size_t)m->nq, rows = (size_t)(x.nc + m->nh);
+    x.free = dep_bytes(arena, (nv + 1) * sizeof *x.free);
+    x.target = dep_bytes(arena, ((size_t)m->nh + 1) * sizeof *x.target);
+    x.v = dep_doubles(arena, nv + 1);
+    x.trial = dep_doubles(arena, nv + nq + 1);
+    x.vd = dep_doubles(arena, nv + 1);
+    x.angles = dep_doubles(arena, (size_t)m->nh + 1);
+    x.rates = dep_doubles(arena, (size_t)m->nh + 1);
+    x.theta = dep_doubles(arena, (size_t)m->nh + 1);
+    x.q = dep_doubles(arena, nq);
+    x.T = dep_doubles(arena, nq * nv + 1);
+    x.J = dep_doubles(arena, (size_t)x.nc * nq + 1);
+    x.H = dep_doubles(arena, (size_t)m->nh * nq + 1);
+    x.A = dep_doubles(arena, rows * nv + 1);
+    x.N = dep_doubles(arena, nv * nv + 1);
+    x.F = dep_doubles(arena, rows + 1);
+    x.g = dep_doubles(arena, rows + 1);
+    x.step = dep_doubles(arena, nv + 1);
+    if (arena->failed) {
+        return dep_plain_error(run->error, DEP_MEMORY_ERROR, "out of memory");
+    }
+    m->initial_state(run->p, q, qd);
+    if (m->nv == 0 || m->tree_pose == NULL) {
+        return DEP_OK;
+    }
+    m->tree_values(run->p, x.v, x.vd);
+    m->loop_targets(run->p, x.angles, x.rates);
+    for (int h = 0; h < m->nh; ++h) {
+        if (isfinite(x.angles[h])) {
+            x.target[x.rows++] = h;
+        }
+    }
+    x.rows += x.nc;
+    for (int k = 0; k < m->nv; ++k) {
+        if (!(m->tree_held[k] & 1)) {
+            x.free[x.nf++] = k;
+        }
+    }
+    if (closed(&x, q, qd)) {
+        return DEP_OK; /* a tree, or loops the given values close: the placement as it is */
+    }
+    int status = assemble_values(&x, run);
+    if (status == DEP_OK) {
+        status = assemble_rates(&x, run);
+    }
+    if (status != DEP_OK) {
+        return status;
+    }
+    m->tree_pose(x.v, run->p, q);
+    for (size_t j = 0; j < nq; ++j) {
+        qd[j] = 0.0;
+        for (size_t k = 0; k < nv; ++k) {
+            qd[j] += x.T[j * nv + k] * x.vd[k];
+        }
+    }
+    return record(&x, run);
+}
