@@ -144,14 +144,21 @@ def c_view(view: ModuleView, runtime_files: tuple[str, ...]) -> CModuleView:
 def c_sources(model: ir.Model, system: SymbolicSystem | None = None) -> dict[str, str]:
     """The generated files of the C target (model.c, model.h, Makefile) as text; no file
     written. The integrator's sources (runtime/c) are not included."""
+    return c_target(model, system)[1]
+
+
+def c_target(model: ir.Model, system: SymbolicSystem | None = None
+             ) -> tuple[ModuleView, dict[str, str]]:
+    """The lowered module (its sizes, tables and identity, for targets that wrap the C model:
+    codegen.fmu) and the generated files of `c_sources`, from one lowering."""
     from depsim import __version__  # the facade package imports codegen lazily
 
     view = lower_module(model, system or derive(model), CPrinter, __version__)
     runtime = tuple(sorted(path.name for path in runtime_c_dir().iterdir()
                            if path.suffix in (".c", ".h")))
     c = c_view(view, runtime)
-    return {name: C_ENVIRONMENT.get_template(f"c/{name}.j2").render(c=c, m=view)
-            for name in GENERATED_FILES}
+    return view, {name: C_ENVIRONMENT.get_template(f"c/{name}.j2").render(c=c, m=view)
+                  for name in GENERATED_FILES}
 
 
 def compile_c(model: ir.Model, out_dir: Path, system: SymbolicSystem | None = None) -> Path:
@@ -182,4 +189,4 @@ def _write_if_changed(path: Path, text: str) -> None:
     path.write_text(text, encoding="utf-8", newline="\n")
 
 
-__all__ = ["compile_c", "c_sources", "c_program_name", "runtime_c_dir"]
+__all__ = ["compile_c", "c_sources", "c_target", "c_program_name", "runtime_c_dir"]
