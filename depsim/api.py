@@ -57,6 +57,9 @@ class Model:
         core (built once per cache). Artifacts are cached under `out_dir` or the user cache,
         keyed by the model hash, element counts and depsim version (the C build also by
         compiler and flags)."""
+        if target == "fmu":
+            raise UsageError("an FMU is not run from Python: write it with "
+                             "Model.export_fmu(path) (docs/fmu.md)")
         if target not in TARGETS:
             raise UsageError(f"unknown target '{target}' (available: {', '.join(TARGETS)})")
         directory = Path(out_dir) if out_dir is not None else _cache_dir(self.ir, target)
@@ -71,6 +74,14 @@ class Model:
         from depsim.codegen import compile_numpy, load_generated
 
         return Simulator(self, load_generated(compile_numpy(self.ir, directory)), target)
+
+    def export_fmu(self, path: str | os.PathLike) -> Path:
+        """Write the model as an FMI 2.0 Co-Simulation FMU (a `.fmu` archive with its
+        modelDescription.xml, a linux64 binary built with the system C compiler, and the C
+        sources) to `path`, atomically; returns the path. See docs/fmu.md."""
+        from depsim.codegen.fmu import compile_fmu
+
+        return compile_fmu(self.ir, path)
 
 
 def _cache_dir(model: ir.Model, target: str) -> Path:

@@ -97,9 +97,12 @@ def _parser() -> argparse.ArgumentParser:
 
     compile_ = commands.add_parser("compile", help="generate code for a model")
     compile_.add_argument("model", help="the .dep file")
-    compile_.add_argument("--target", choices=["numpy", "c"], default="numpy",
-                          help="numpy: a Python module; c: a standalone C folder (make -C DIR)")
-    compile_.add_argument("-o", "--out", required=True, metavar="DIR", help="output folder")
+    compile_.add_argument("--target", choices=["numpy", "c", "fmu"], default="numpy",
+                          help="numpy: a Python module; c: a standalone C folder (make -C DIR); "
+                               "fmu: an FMI 2.0 Co-Simulation FMU (docs/fmu.md)")
+    compile_.add_argument("-o", "--out", metavar="DIR",
+                          help="output folder (numpy, c; required), or the .fmu file (fmu; "
+                               "default MODEL.fmu in the current folder)")
     _add_elements(compile_)
     compile_.set_defaults(command=_compile)
 
@@ -237,6 +240,10 @@ def _check(args) -> int:
 
 
 def _compile(args) -> int:
+    if args.target == "fmu":
+        return _compile_fmu(args)
+    if args.out is None:
+        raise _usage(f"--target {args.target} needs -o DIR, the folder to write")
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise _usage(f"-o {args.out}: it exists and is not a folder; compile writes a folder "
@@ -253,6 +260,17 @@ def _compile(args) -> int:
     from depsim.codegen import compile_numpy
 
     print(f"wrote {compile_numpy(model.ir, out)}")
+    return EXIT_OK
+
+
+def _compile_fmu(args) -> int:
+    """compile --target fmu: the FMU file, checked before anything is derived."""
+    from depsim.runtime.output import check_output
+
+    out = args.out or f"{Path(args.model).stem}.fmu"
+    _check_outputs(args.model, [("-o", out, lambda p: check_output(p, ("fmu",)))])
+    model = _load(args)
+    print(f"wrote {model.export_fmu(out)}")
     return EXIT_OK
 
 
