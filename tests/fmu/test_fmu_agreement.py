@@ -1,0 +1,83 @@
+"""The FMU under fmpy against `depsim run --target c` (the Python API on the same core).
+
+Both integrate the same model with the same tolerance `tol`; the FMU's steps also end at each
+communication point (every 0.01 s), so the two step sequences differ and the results agree
+to the integration error, not to round-off. Outputs and hinge angles are compared at the
+output times to 10 tol of each signal's scale (at least 1), latch times to the output
+interval (the FMU's `<hinge>.latched` turns 1 at the first communication point after the
+latch engaged)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from fmpy import simulate_fmu
+
+import depsim
+from fmu_helpers import model_path
+
+INTERVAL = 0.01
+
+
+@pytest.fixture(scope="module")
+def intelsat():
+    model = depsim.load(model_path("intelsat5"))
+    return model, model.compile(target="c")
+
+
+def _agree(fmu_result, result, module, tol):
+    """Outputs and hinge angles at every output time within 10 tol of their scale; latches
+    at the same times (to the output interval)."""
+    assert len(fmu_result) == len(result.times)
+    assert np.allclose(fmu_result["time"], result.times, rtol=0, atol=1e-9)
+    signals = [(name, np.asarray(result.outputs)[:, j]) for j, name in enumerate(module.OUTPUTS)]
+    signals += [(f"{h}.angle", np.asarray(result.hinge_angles)[:, k])
+                for k, h in enumerate(module.HINGES)]
+    worst = 0.0
+    for name, reference in signals:
+        scale = max(1.0, float(np.max(np.abs(reference))))
+        error = float(np.max(np.abs(fmu_result[name] - reference))) / scale
+        assert error <= 10 * tol, f"{name}: {error:.3g} of its scale"
+        worst = max(worst, error)
+    latches = {r.hinge: r.t for r in result.deployment.latches}
+    for hinge in result.deployment.latch_hinges:
+        latched = np.flatnonzero(fmu_result[f"{hinge}.latched"])
+        if hinge not in latches:
+            assert latched.size == 0, hinge
+            continue
+        t_fmu = fmu_result["time"][latched[0]]
+        assert latches[hinge] <= t_fmu + 1e-6 and t_fmu - latches[hinge] <= INTERVAL + 1e-6, \
+            f"{hinge}: FMU {t_fmu}, run {latches[hinge]}"
+    return worst
+
+
+def _outputs(module):
+    return (list(module.OUTPUTS) + [f"{h}.angle" for h in module.HINGES]
+            + [f"{h}.latched" for h in module.HINGES])
+
+
+def test_intelsat5_deployment(intelsat, fmu_path):
+    """The full 80 s deployment with its four latches."""
+    model, sim = intelsat
+    tol = model.ir.simulation.tol
+    result = sim.run(dt_out=INTERVAL)
+    assert result.deployment.deployed
+    fmu_result = simulate_fmu(str(fmu_path("intelsat5")), output_interval=INTERVAL,
+                              stop_time=model.ir.simulation.t_end, output=_outputs(sim.module))
+    _agree(fmu_result, result, sim.module, tol)
+
+
+def test_intelsat5_parameters_through_the_fmu(intelsat, fmu_path):
+    """Start values set through the FMU equal `--set` of the same parameters: more friction
+    at h2, less preload at h1 (30 s)."""
+    model, sim = intelsat
+    tol = model.ir.simulation.tol
+    changes = {"h2.friction": 0.75, "h1.preload": 1.5}
+    result = sim.run(set=changes, dt_out=INTERVAL, t_end=30.0)
+    fmu_result = simulate_fmu(str(fmu_path("intelsat5")), output_interval=INTERVAL,
+                              stop_time=30.0, start_values=changes,
+                              output=_outputs(sim.module))
+    _agree(fmu_result, result, sim.module, tol)
+    defaults = sim.run(dt_out=INTERVAL, t_end=30.0)
+    moved = np.max(np.abs(np.asarray(defaults.outputs) - np.asarray(result.outputs)))
+    assert moved > 1000 * tol  # the change matters, so the agreement says something

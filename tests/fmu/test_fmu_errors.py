@@ -1,0 +1,150 @@
+"""Error paths of the FMU: every refused call returns fmi2Error with its reason in the log
+(category logError) and leaves the instance refusing steps until fmi2Reset; the CLI's
+refusals leave no file behind."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import pytest
+from fmpy.fmi1 import FMICallException
+
+from fmu_helpers import model_path
+
+FMI2_ERROR = 3
+
+
+def _raises_error(call, *args):
+    with pytest.raises(FMICallException) as caught:
+        call(*args)
+    assert caught.value.status == FMI2_ERROR
+
+
+def test_unknown_value_reference(fmu_path, slave):
+    s = slave(fmu_path("pendulum"))
+    s.start()
+    _raises_error(s.fmu.getReal, [10_000])
+    assert any("unknown value reference 10000" in m for m in s.log.errors())
+    # the instance refuses to step on
+    _raises_error(s.fmu.doStep, 0.0, 0.01)
+    assert "not allowed in state error" in s.log.errors()[-1]
+
+
+def test_outputs_cannot_be_set(fmu_path, slave):
+    s = slave(fmu_path("intelsat5"))
+    s.start()
+    _raises_error(s.fmu.setReal, [s.vr["theta1"]], [1.0])
+    assert "'theta1' is an output" in s.log.errors()[-1]
+    t = slave(fmu_path("intelsat5"))
+    t.start()
+    _raises_error(t.fmu.setBoolean, [t.vr["h1.latched"]], [True])
+    assert "'h1.latched' is an output" in t.log.errors()[-1]
+
+
+def test_parameter_after_initialization(fmu_path, slave):
+    """A parameter is fixed: settable before fmi2ExitInitializationMode only; after fmi2Reset
+    it can be set again and the run uses it."""
+    s = slave(fmu_path("pendulum"))
+    s.start()
+    _raises_error(s.fmu.setReal, [s.vr["L"]], [2.0])
+    assert "parameter 'L' is fixed once initialization ends" in s.log.errors()[-1]
+    s.fmu.reset()
+    s.start({"L": 2.0, "pivot.initial_angle": 0.5})
+    assert s.real("L") == 2.0
+    assert s.real("theta") == pytest.approx(0.5, abs=1e-12)
+
+
+def test_null_and_non_finite_arguments(fmu_path, slave):
+    s = slave(fmu_path("pendulum"))
+    s.fmu.setupExperiment(startTime=0.0)
+    _raises_error(s.fmu.setReal, [s.vr["L"]], [float("nan")])
+    assert "the value for 'L' is not a finite number" in s.log.errors()[-1]
+    s.fmu.reset()
+    status = s.fmu.dll.fmi2SetReal(s.fmu.component, None, 1, None)
+    assert status == FMI2_ERROR
+    assert "vr or value is NULL" in s.log.errors()[-1]
+
+
+def test_state_functions_unsupported(fmu_path, slave):
+    s = slave(fmu_path("pendulum"))
+    s.start()
+    _raises_error(s.fmu.getFMUstate)
+    assert "canGetAndSetFMUstate = false" in s.log.errors()[-1]
+
+
+def test_loops_that_cannot_close(fmu_path, slave):
+    """Initial values set through the FMU that no pose satisfies: fmi2ExitInitializationMode
+    fails with the solver's own message (as `depsim run --set` prints it)."""
+    s = slave(fmu_path("slider_crank"))
+    s.fmu.setupExperiment(startTime=0.0)
+    s.fmu.enterInitializationMode()
+    s.fmu.setReal([s.vr["crank_pin.initial_angle"]], [2.0])
+    _raises_error(s.fmu.exitInitializationMode)
+    (message,) = s.log.errors()
+    assert "initial state" in message and "cannot all hold" in message
+
+
+def test_failure_inside_a_step(fmu_path, slave):
+    """A solver failure during fmi2DoStep: fmi2Error, the SolverError text in the log, the
+    time of the last successful step kept, and no further step."""
+    s = slave(fmu_path("pendulum"))
+    s.start({"pivot.initial_angle": 1.0}, stop_time=10.0)
+    s.fmu.doStep(0.0, 0.5)
+    _raises_error(s.fmu.doStep, 0.5, 20.0)  # passes stopTime
+    assert "passes stopTime 10" in s.log.errors()[-1]
+    assert s.fmu.getRealStatus(2) == 0.5  # fmi2LastSuccessfulTime
+
+
+def test_stiff_run_stops_with_the_solver_message(fmu_path, slave):
+    """Friction regularised over 1e-6 rad/s makes the swing stiff where it turns: the core's
+    step-budget failure (the run would pass max_steps), raised in fmi2DoStep with its full
+    text and hint; the last successful time is the step before."""
+    s = slave(fmu_path("motor"))
+    s.start({"pivot.slip_rate": 1e-6}, stop_time=1000.0)
+    t = 0.0
+    with pytest.raises(FMICallException) as caught:
+        while t < 10.0:
+            s.fmu.doStep(t, 0.01)
+            t += 0.01
+    assert caught.value.status == FMI2_ERROR
+    (message,) = s.log.errors()
+    assert "step size: the model is stiff here" in message and "hint: " in message
+    assert s.fmu.getRealStatus(2) == pytest.approx(t)  # fmi2LastSuccessfulTime
+    assert 1.0 < t < 10.0
+
+
+def _depsim(*args, cwd=None, env=None):
+    return subprocess.run([sys.executable, "-m", "depsim", *args], capture_output=True,
+                          text=True, cwd=cwd, env=env)
+
+
+def test_cli_bad_paths(tmp_path):
+    model = str(model_path("pendulum"))
+    (tmp_path / "folder.fmu").mkdir()
+    for out, said in [(tmp_path / "missing" / "p.fmu", "does not exist"),
+                      (tmp_path / "p.zip", "unknown format '.zip'"),
+                      (tmp_path / "folder.fmu", "it is a folder")]:
+        run = _depsim("compile", model, "--target", "fmu", "-o", str(out))
+        assert run.returncode == 2
+        assert said in run.stderr and "Traceback" not in run.stderr
+    assert sorted(os.listdir(tmp_path)) == ["folder.fmu"]
+    assert os.listdir(tmp_path / "folder.fmu") == []
+
+
+def test_cli_compiler_failure(tmp_path):
+    """The C compiler fails: one clear error, exit code 2, no file and no temporary left."""
+    env = {**os.environ, "CC": "false"}
+    run = _depsim("compile", str(model_path("pendulum")), "--target", "fmu", "-o",
+                  str(tmp_path / "p.fmu"), env=env)
+    assert run.returncode == 2
+    assert run.stderr.startswith("depsim: error: building the FMU's binary failed")
+    assert "Traceback" not in run.stderr
+    assert os.listdir(tmp_path) == []
+
+
+def test_cli_default_name(tmp_path):
+    run = _depsim("compile", str(model_path("pendulum")), "--target", "fmu", cwd=tmp_path)
+    assert run.returncode == 0, run.stderr
+    assert os.listdir(tmp_path) == ["pendulum.fmu"]
