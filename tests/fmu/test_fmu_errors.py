@@ -144,7 +144,10 @@ def test_cli_compiler_failure(tmp_path):
     assert os.listdir(tmp_path) == []
 
 
-def test_cli_default_name(tmp_path):
+def test_cli_default_name(tmp_path, fmu_path):
+    """Without -o: <model>.fmu in the current folder, byte for byte the FMU compile_fmu
+    writes (the archive is reproducible)."""
     run = _depsim("compile", str(model_path("pendulum")), "--target", "fmu", cwd=tmp_path)
     assert run.returncode == 0, run.stderr
     assert os.listdir(tmp_path) == ["pendulum.fmu"]
+    assert (tmp_path / "pendulum.fmu").read_bytes() == fmu_path("pendulum").read_bytes()
