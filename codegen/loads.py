@@ -2,7 +2,8 @@
 
 Potentials (hinge springs, cable loops, gravity, beam elasticity) give f = -dV/dq exactly, so
 a free conservative model conserves energy. Hinge damping is a torque tau on the hinge angle
-theta, mapped to the generalized force Q = (d theta/dq)^T tau. Hinge Coulomb friction is not
+theta, mapped to the generalized force Q = (d theta/dq)^T tau; so is an input torque, and an
+input force F at a point r(q) gives Q = (dr/dq)^T F. Hinge Coulomb friction is not
 here: its torque depends on the hinge's mode (sliding, stuck, locked by a latch or stop), so
 the integrator applies it from hinge_properties (docs/deployment.md)."""
 
@@ -36,7 +37,8 @@ def derive_loads(model: ir.Model, kin: Kinematics, mass_matrix: sympy.Matrix,
                           for i, j in _nonzero(mass_matrix)))
     potentials = _potentials(model, kin, thetas)
     force = _potential_force(kin, potentials)
-    dissipators = _hinge_dissipators(model, kin, jacobian) + _beam_dissipators(model, kin)
+    dissipators = _hinge_dissipators(model, kin, jacobian) + _beam_dissipators(model, kin) \
+        + _input_loads(model, kin, jacobian)
     for _, generalized, _power in dissipators:
         force = [f + g for f, g in zip(force, generalized)]
     return Loads(
@@ -133,4 +135,26 @@ def _beam_dissipators(model: ir.Model, kin: Kinematics) -> list[Dissipator]:
         power = element.damping_power(rates) if hasattr(element, "damping_power") \
             else -sympy.Add(*(r * f for r, f in zip(rates, local)))
         found.append((f"damping.{beam.name}", generalized, power))
+    return found
+
+
+def _input_loads(model: ir.Model, kin: Kinematics, jacobian: sympy.Matrix) -> list[Dissipator]:
+    """Each input's generalized force and the power it removes (negative while it drives):
+    u(t) = p[slot] + p[slot + 1] t per component (ir.Input)."""
+    p, t, q = kin.symbols.p, kin.symbols.t, kin.symbols.q
+    qd = sympy.Matrix(kin.symbols.qd)
+    found = []
+    for put in model.inputs:
+        values = [p[slot] + p[slot + 1] * t for slot in put.slots]
+        if put.kind is ir.InputKind.TORQUE:
+            rows = [jacobian[put.hinge, :]]
+        else:
+            position = kin.point_position(put.point.member, put.point.point)
+            rows = [sympy.Matrix([[coordinate.diff(s) for s in q]]) for coordinate in position]
+        generalized = [sympy.Integer(0)] * len(q)
+        power = sympy.Integer(0)
+        for value, row in zip(values, rows):
+            generalized = [g + value * r for g, r in zip(generalized, row)]
+            power -= value * (row * qd)[0, 0]
+        found.append((f"input.{put.name}", generalized, power))
     return found

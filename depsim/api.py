@@ -124,13 +124,14 @@ class Simulator:
 
     def run(self, set: Mapping[str, float | str] | None = None, t_end: float | None = None,
             dt_out: float | None = None, tol: float | None = None, progress: bool = False,
-            max_steps: float | None = None):
+            max_steps: float | None = None, inputs=None):
         """Simulate with parameters `set` applied; returns a `depsim.runtime.Result`.
-        max_steps: the most steps the run may take (default 1e6; docs/method.md, 6)."""
+        max_steps: the most steps the run may take (default 1e6; docs/method.md, 6);
+        inputs: {input: time table as rows (t, u) in SI, or one number} (docs/api.md)."""
         from depsim.runtime import simulate
 
         return simulate(self.module, self.parameters(set), t_end=t_end, dt_out=dt_out,
-                        tol=tol, progress=progress, max_steps=max_steps)
+                        tol=tol, progress=progress, max_steps=max_steps, inputs=inputs)
 
 
 def _unknown_parameter(name: str, by_name, derived) -> str:

@@ -113,6 +113,9 @@ def _parser() -> argparse.ArgumentParser:
                           "on the compiled integrator core")
     run.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                      help="override a parameter, units allowed (h1.preload=1.5N*m); repeatable")
+    run.add_argument("--input", action="append", default=[], metavar="NAME=FILE",
+                     help="drive input NAME by the time table in FILE (CSV lines 't,u' in SI, "
+                          "linear in between); a constant input is a --set; repeatable")
     run.add_argument("--t-end", type=_positive_float, metavar="T", help="end time (s)")
     run.add_argument("--dt-out", type=_positive_float, metavar="DT", help="output interval (s)")
     run.add_argument("--tol", type=_tolerance, metavar="TOL",
@@ -215,6 +218,24 @@ def _settings(items: list[str]) -> dict[str, str]:
     return settings
 
 
+def _input_tables(items: list[str]) -> dict:
+    """--input NAME=FILE: each input's time table (depsim.runtime.tables)."""
+    from depsim.errors import UsageError
+    from depsim.runtime.tables import read_table
+
+    tables = {}
+    for item in items:
+        name, sep, path = item.partition("=")
+        if not sep or not name.strip() or not path.strip():
+            raise UsageError(f"--input '{item}': expected NAME=FILE, e.g. --input "
+                             "T_motor=torque.csv")
+        try:
+            tables[name.strip()] = read_table(path.strip())
+        except ValueError as exc:
+            raise UsageError(f"--input {name.strip()}: {exc}") from None
+    return tables
+
+
 def _load(args):
     import depsim
 
@@ -284,12 +305,13 @@ def _run(args) -> int:
                                 ("--plot", args.plot, lambda p: check_output(p, PLOT_FORMATS)),
                                 ("--animate", args.animate, check_animation_path)])
     settings = _settings(args.set)
+    tables = _input_tables(args.input)
     model = _load(args)
     _check_output_times(model, args)
     sim = model.compile(target=args.target)
     try:
         result = sim.run(set=settings, t_end=args.t_end, dt_out=args.dt_out, tol=args.tol,
-                         progress=True, max_steps=args.max_steps)
+                         progress=True, max_steps=args.max_steps, inputs=tables)
     except ValueError as exc:  # a setting the runtime refuses (simulate's documented ValueError)
         raise _usage(str(exc)) from exc
     with all_or_none():

@@ -66,6 +66,7 @@ CODES: dict[str, str] = {
     "E044": "cable angles are not a linear combination of hinge angles",
     "E045": "initial value for something that is not a joint",
     "E046": "initial value of a slider that closes a kinematic loop",
+    "E047": "input on something it cannot act on, or a default that is not a number",
     # warnings
     "W001": "member has no joint path to the ground",
     "W002": "parameter never used",

@@ -151,6 +151,7 @@ Expr = Num | ParamRef | Unary | Binary | Call | Time | BodyCoord | PointCoord | 
 class ParamKind(Enum):
     DECLARED = "param"  # a `param` statement
     ATTRIBUTE = "attribute"  # an element attribute given as a plain quantity, e.g. yoke.mass
+    INPUT = "input"  # an input's value at t = 0 or its rate (`T.rate`): u = value + rate t
 
 
 @dataclass(frozen=True, slots=True)
@@ -318,6 +319,28 @@ class Output:
     span: Span
 
 
+class InputKind(Enum):
+    TORQUE = "torque"  # on a hinge: +u on member b, -u on member a (N*m)
+    FORCE = "force"  # on a point, in the ground frame: components `<name>.x`, `<name>.y` (N)
+
+
+@dataclass(frozen=True, slots=True)
+class Input:
+    """An external load a run or a co-simulation drives (docs/language.md, Inputs).
+
+    Each component k is two entries of the parameter vector: its value at t = 0 at
+    `slots[k]` and its rate at `slots[k] + 1`, so that u_k(t) = p[slot] + p[slot + 1] t
+    (a constant unless a run changes them: a time table, an FMU's inputs)."""
+
+    name: str
+    kind: InputKind
+    hinge: int | None  # TORQUE: index into Model.hinges
+    point: Attachment | None  # FORCE: where it acts
+    components: tuple[str, ...]  # ("T",) or ("F.x", "F.y"): the input names a run sets
+    slots: tuple[int, ...]  # each component's value slot in Model.params
+    span: Span
+
+
 @dataclass(frozen=True, slots=True)
 class Simulation:
     t_end: float  # s
@@ -396,3 +419,4 @@ class Model:
     loop_joints: tuple[tuple[JointKind, int], ...]  # joints closing kinematic loops
     warnings: tuple[Diagnostic, ...]
     limits: tuple[Limit, ...] = ()  # every range check of an attribute, in file order
+    inputs: tuple[Input, ...] = ()

@@ -1,6 +1,7 @@
 """The symbol table: every declared name, its kind and index, and each member's points.
 
-One namespace holds parameters, members (bars, bodies, beams), joints, cables and outputs.
+One namespace holds parameters, members (bars, bodies, beams), joints, cables, outputs and
+inputs.
 Keywords, functions, `pi`, `t` and `ground` are reserved. A parameter may reuse a unit's
 name (the pendulum's `m`): a bare name is looked up as a declared name first, and a unit
 written after a value (`2 m`) is always the unit.
@@ -12,8 +13,8 @@ from dataclasses import dataclass, field
 
 from .errors import Reporter, at
 from .ir import FUNCTIONS, Member, MemberKind, Span
-from .syntax import (KEYWORDS, CableStmt, GroundStmt, JointStmt, MemberStmt, OutputStmt,
-                     ParamStmt, PointItem, SourceFile)
+from .syntax import (KEYWORDS, CableStmt, GroundStmt, InputStmt, JointStmt, MemberStmt,
+                     OutputStmt, ParamStmt, PointItem, SourceFile)
 from .units import UNITS
 
 CONSTANTS = frozenset({"pi", "t"})
@@ -21,7 +22,8 @@ CONSTANTS = frozenset({"pi", "t"})
 # What each kind is called in messages.
 KIND_WORDS = {
     "param": "parameter", "bar": "bar", "body": "body", "beam": "beam", "hinge": "hinge",
-    "slider": "slider", "cable": "cable", "output": "output", "ground": "the ground",
+    "slider": "slider", "cable": "cable", "output": "output", "input": "input",
+    "ground": "the ground",
 }
 MEMBER_KINDS = ("bar", "body", "beam", "ground")
 
@@ -90,6 +92,8 @@ def _declare_statement(table: SymbolTable, statement, report: Reporter) -> None:
         _declare(table, statement.name, "cable", report)
     elif isinstance(statement, OutputStmt):
         _declare(table, statement.name, "output", report)
+    elif isinstance(statement, InputStmt):
+        _declare(table, statement.name, "input", report)
     elif isinstance(statement, GroundStmt):
         _declare_points_of(table, "ground", "the ground", statement.block.items, report)
 

@@ -21,8 +21,9 @@ from .ir import (Beam, Body, Cable, Expr, Ground, Hinge, JointKind, Model, Num, 
 from .joints import resolve_cable, resolve_hinge, resolve_slider
 from .members import check_element_total, resolve_gravity, resolve_ground, resolve_member
 from .names import collect_symbols
-from .syntax import (CableStmt, GravityStmt, GroundStmt, InitialStmt, JointStmt, MemberStmt,
-                     ModelStmt, OutputStmt, ParamStmt, SimulateStmt, SourceFile)
+from .inputs import resolve_input
+from .syntax import (CableStmt, GravityStmt, GroundStmt, InitialStmt, InputStmt, JointStmt,
+                     MemberStmt, ModelStmt, OutputStmt, ParamStmt, SimulateStmt, SourceFile)
 from .units import si_text
 
 DEFAULT_SIMULATION = Simulation(t_end=10.0, tol=1e-8, dt_out=0.01)
@@ -50,6 +51,7 @@ class _ModelBuilder:
         self.sliders: list[dict | None] = []
         self.cables: list[Cable | None] = []
         self.outputs: list[Output | None] = []
+        self.inputs: list = []
         self.initial = InitialValues()
         self.simulation = DEFAULT_SIMULATION
         self.seen: dict[type, object] = {}
@@ -194,6 +196,10 @@ class _ModelBuilder:
         self.outputs.append(None if typed is None else Output(
             statement.name.text, typed.expr, typed.dim, si_text(typed.dim), statement.span))
 
+    def _read_InputStmt(self, statement: InputStmt) -> None:
+        if self._declares(statement):
+            self.inputs.append(resolve_input(statement, self.symbols, self.reader))
+
     # --- checks and the model ------------------------------------------------------------
 
     def _warn_unused_params(self) -> None:
@@ -204,7 +210,8 @@ class _ModelBuilder:
                                     statement.name.span)
 
     def _model(self) -> Model:
-        parts = (self.members, self.hinges, self.sliders, self.cables, self.outputs)
+        parts = (self.members, self.hinges, self.sliders, self.cables, self.outputs,
+                 self.inputs)
         assert self.gravity is not None and all(None not in p for p in parts), \
             "an element failed without an error"
         hinges = tuple(Hinge(**h, initial_angle=self._initial(h["name"], "initial_angle"),
@@ -234,7 +241,7 @@ class _ModelBuilder:
             hinges=hinges, sliders=sliders, cables=tuple(self.cables),
             outputs=tuple(self.outputs), simulation=self.simulation, placements=placements,
             loop_joints=loops, warnings=tuple(sorted(self.report.warnings(), key=sort_key)),
-            limits=tuple(self.reader.limits))
+            limits=tuple(self.reader.limits), inputs=tuple(self.inputs))
 
     def _initial(self, joint: str, suffix: str) -> Expr:
         value = self.initial.get(joint, suffix)

@@ -26,7 +26,7 @@ def summary(model: Model) -> str:
     lines = [f"model {model.name}" + (f": {model.description}" if model.description else ""),
              f"source {model.source_file} (sha256 {model.source_sha256[:12]})", ""]
     for section in (_bodies, _beams, _hinges, _sliders, _cables, _sizes, _settings, _params,
-                    _outputs, _warnings):
+                    _outputs, _inputs, _warnings):
         lines += section(model, values)
     return "\n".join(lines).rstrip() + "\n"
 
@@ -153,14 +153,18 @@ def _settings(model: Model, values: list[float]) -> list[str]:
 
 def _params(model: Model, values: list[float]) -> list[str]:
     declared = [p for p in model.params if p.kind.value == "param"]
-    attributes = [p for p in model.params if p.kind.value != "param"]
+    attributes = [p for p in model.params if p.kind.value == "attribute"]
+    inputs = [p for p in model.params if p.kind.value == "input"]
+    of_inputs = f", {len(inputs)} of inputs" if inputs else ""
     lines = ["", f"parameters ({len(model.params)}: {len(declared)} declared, "
-             f"{len(attributes)} from attributes)"]
+             f"{len(attributes)} from attributes{of_inputs})"]
     lines += [f"  {p.name} = {p.default:.6g} {p.unit}" for p in declared]
     if attributes:
         lines += _wrap_items("  attributes:", [
             f"{p.name}={p.default:.4g}" + ("" if p.unit == "1" else f" {p.unit}")
             for p in attributes])
+    if inputs:
+        lines += _wrap_items("  inputs:", [f"{p.name}={p.default:.4g} {p.unit}" for p in inputs])
     if model.derived:
         lines += _wrap_items("  derived:", [f"{d.name} (from {', '.join(d.depends_on)})"
                                             for d in model.derived])
@@ -170,6 +174,18 @@ def _params(model: Model, values: list[float]) -> list[str]:
 def _outputs(model: Model, values: list[float]) -> list[str]:
     listed = ", ".join(f"{o.name} [{o.unit}]" for o in model.outputs) or "none"
     return _wrap(f"outputs ({len(model.outputs)}): {listed}")
+
+
+def _inputs(model: Model, values: list[float]) -> list[str]:
+    if not model.inputs:
+        return []
+    items = []
+    for put in model.inputs:
+        where = model.hinges[put.hinge].name if put.hinge is not None \
+            else f"{_member_name(model, put.point.member)}.{put.point.point}"
+        items.append(f"{put.name} {put.kind.value} on {where} "
+                     f"[{model.params[put.slots[0]].unit}]")
+    return _wrap(f"inputs ({len(model.inputs)}): {', '.join(items)}")
 
 
 def _warnings(model: Model, values: list[float]) -> list[str]:

@@ -16,9 +16,11 @@ from .ir import Span
 
 # The words that start statements, and all keywords of the grammar.
 STATEMENT_WORDS = ("model", "param", "gravity", "ground", "bar", "body", "beam", "hinge",
-                   "slider", "cable", "initial", "simulate", "output")
+                   "slider", "cable", "initial", "simulate", "output", "input")
 KEYWORDS = frozenset(STATEMENT_WORDS + ("joins", "to", "point"))
 KIND_WORDS = ("bar", "body", "beam", "hinge", "slider")  # keywords the syntax tree keeps
+# Words of the input statement only (`input T torque on h1`): keywords there, names elsewhere.
+INPUT_WORDS = ("torque", "force", "on")
 
 
 @dataclass(frozen=True, slots=True)
@@ -198,8 +200,18 @@ class OutputStmt:
     span: Span
 
 
+@dataclass(frozen=True, slots=True)
+class InputStmt:
+    name: Ident
+    kind: str  # "torque" or "force"
+    target: Ident  # a hinge (torque) or a member (force)
+    point: Ident | None  # force: the member's point
+    default: "AstExpr | VectorLit | None"
+    span: Span
+
+
 Statement = ModelStmt | ParamStmt | GravityStmt | GroundStmt | MemberStmt | JointStmt \
-    | CableStmt | InitialStmt | SimulateStmt | OutputStmt
+    | CableStmt | InitialStmt | SimulateStmt | OutputStmt | InputStmt
 
 
 @dataclass(frozen=True, slots=True)
@@ -269,6 +281,13 @@ class ToSyntax(Transformer):
 
     def output_stmt(self, meta, children) -> OutputStmt:
         return OutputStmt(self._ident(children[0]), children[1], self._span(meta))
+
+    def input_stmt(self, meta, children) -> InputStmt:
+        name, kind, on, target, *rest = children
+        point = self._ident(rest.pop(0)) if rest and isinstance(rest[0], Token) else None
+        default = rest[0] if rest else None
+        return InputStmt(self._ident(name), str(kind), self._ident(target), point, default,
+                         self._span(meta))
 
     def attachment(self, meta, children) -> AttachmentRef:
         member, point = children

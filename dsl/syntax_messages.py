@@ -225,7 +225,8 @@ def _terminal_word(name: str) -> str:
     from .parse import parser
 
     fixed = {"_NL": "end of line", "$END": "end of file", "UNIT": "a unit", "NAME": "a name",
-             "NUMBER": "a number", "STRING": "a quoted description"}
+             "NUMBER": "a number", "STRING": "a quoted description",
+             "LOAD_KIND": "'torque' or 'force'", "ON": "'on'"}
     if name in fixed:
         return fixed[name]
     if name in KEYWORD_TERMINALS:

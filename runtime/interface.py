@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-ABI = 3  # DEP_MODEL_ABI: bumped whenever the dep_model struct changes
+ABI = 4  # DEP_MODEL_ABI: bumped whenever the dep_model struct changes
 
 ARGUMENTS = ("v", "q", "qd", "t", "p")  # every function takes a subsequence, in this order
 
@@ -80,6 +80,7 @@ SIZES = (
     Size("ne", "ENERGIES", "energy terms"),
     Size("nd", "DISSIPATORS", "dissipators"),
     Size("nv", "TREE_JOINTS", "joints of the assembly tree"),
+    Size("ni", "INPUTS", "inputs (external loads a run or a co-simulation drives)"),
 )
 
 TABLES = (
@@ -104,6 +105,10 @@ TABLES = (
           "the joints placing the members at t = 0, in placement order"),
     Table("tree_held", "TREE_HELD", "const int", "nv",
           "1: its initial value is given, 2: its rate, 3: both (held by the assembly)"),
+    Table("input_names", "INPUTS", "const char *const", "ni", ""),
+    Table("input_units", "INPUT_UNITS", "const char *const", "ni", "SI unit text"),
+    Table("input_slots", "INPUT_SLOTS", "const int", "ni",
+          "u_k(t) = p[slot] + p[slot + 1] t: the parameters holding input k"),
 )
 
 SETTINGS = (("t_end", "T_END"), ("tol", "TOL"), ("dt_out", "DT_OUT"))

@@ -29,7 +29,7 @@ from .results import EventRecord, PassStats, Result, Stats
 def simulate(module, params: np.ndarray | None = None, t_end: float | None = None,
              dt_out: float | None = None, tol: float | None = None, events=(),
              progress: bool = False, mechanics: bool = True,
-             max_steps: float | None = None) -> Result:
+             max_steps: float | None = None, inputs=None) -> Result:
     """Integrate a model with the iterative multiplier method (docs/method.md).
 
     module: a generated NumPy module (docs/generated-module.md) or a compiled C model
@@ -38,7 +38,10 @@ def simulate(module, params: np.ndarray | None = None, t_end: float | None = Non
     progress: draw a bar on stderr (only when it is a terminal); mechanics: apply the hinges'
     latches, stops and stick-slip friction (docs/deployment.md); False integrates without;
     max_steps: the most accepted steps (default 1e6); a stiff run that would need more stops
-    as soon as the stiffness shows (docs/method.md, 6).
+    as soon as the stiffness shows (docs/method.md, 6); inputs: {input name: time table},
+    a table being rows (t, u) in s and SI, u linear in between (a repeated t is a jump) and
+    held beyond the ends, or one number (a constant); an input not given keeps its
+    parameters (docs/language.md, Inputs).
     Raises SolverError when the integration cannot go on, ValueError for bad settings.
     """
     binding = bind(module)
@@ -49,6 +52,13 @@ def simulate(module, params: np.ndarray | None = None, t_end: float | None = Non
         "t_end": _setting(t_end, model.T_END), "dt_out": _setting(dt_out, model.DT_OUT),
         "tol": _setting(tol, model.TOL), "mechanics": int(bool(mechanics)),
         "max_steps": _setting(max_steps, 0.0)})
+    tables = input_tables(model, inputs)
+    table_array = view.new("dep_input_table[]", max(len(tables), 1))
+    for entry, (index, times, values) in zip(table_array, tables):
+        entry.input, entry.n = index, len(times)
+        entry.t = view.from_buffer("double[]", times)
+        entry.u = view.from_buffer("double[]", values)
+    settings.tables, settings.n_tables = table_array, len(tables)
     bridge = EventBridge(model, p, events)
     bar = Progress(settings.t_end, progress)
 
@@ -78,6 +88,24 @@ def simulate(module, params: np.ndarray | None = None, t_end: float | None = Non
         del progress_callback
         if status == library.DEP_OK:
             library.dep_result_free(result)
+
+
+def input_tables(module, inputs) -> list[tuple[int, np.ndarray, np.ndarray]]:
+    """(input index, times, values) of each table in `inputs`; ValueError for an unknown
+    input or a table that is not rows of (t, u). The core checks the numbers."""
+    names = tuple(module.INPUTS)
+    tables = []
+    for name, table in (inputs or {}).items():
+        if name not in names:
+            known = ", ".join(names) if names else "none: the model has no `input` statement"
+            raise ValueError(f"unknown input '{name}'; the model's inputs: {known}")
+        rows = np.array([[0.0, table]] if np.ndim(table) == 0 else table, dtype=float)
+        if rows.ndim != 2 or rows.shape[1] != 2 or rows.shape[0] < 1:
+            raise ValueError(f"the time table of input '{name}' must be rows of (t, value), "
+                             f"got an array of shape {rows.shape}")
+        tables.append((names.index(name), np.ascontiguousarray(rows[:, 0]),
+                       np.ascontiguousarray(rows[:, 1])))
+    return tables
 
 
 def _setting(value, default) -> float:

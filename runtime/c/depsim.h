@@ -37,6 +37,14 @@ enum dep_status {
 
 #define DEP_PROGRESS_STEPS 64 /* accepted steps between calls of dep_settings.progress */
 
+/* An input of the model (input_names) given as a time table: n points (t_i, u_i), t_i
+   non-decreasing (a repeated time is a jump), u linear in between and held beyond the ends. */
+typedef struct dep_input_table {
+    int input;            /* index into the model's input_names */
+    int n;                /* points, >= 1 */
+    const double *t, *u;  /* n: s, SI */
+} dep_input_table;
+
 /* One run's settings (SI). dep_default_settings gives the model's own. */
 typedef struct dep_settings {
     double t_end;  /* s, > 0 */
@@ -52,6 +60,10 @@ typedef struct dep_settings {
        stops with a SolverError: at once when its step is held down by stability (a stiff
        mode) and the steps left would pass the limit, else when it is reached. */
     double max_steps;
+    /* Inputs given as time tables (dep_simulate; NULL/0: none). An input without a table
+       keeps its parameter slots: u(t) = p[slot] + p[slot + 1] t. */
+    const dep_input_table *tables;
+    int n_tables;
 } dep_settings;
 
 #define DEP_MAX_STEPS 1e6 /* the default of dep_settings.max_steps */
@@ -240,6 +252,42 @@ int dep_simulate(const dep_model *model, const double *params, const dep_setting
                  const dep_event *events, int n_events, dep_result *result, dep_error *error);
 
 void dep_result_free(dep_result *result);
+
+/* ---- one run advanced piece by piece (a co-simulation step, docs/fmu.md) ------------------ */
+
+typedef struct dep_run dep_run; /* opaque */
+
+/* Assemble the initial state at t = 0 and find lambda_0. settings->t_end is the horizon:
+   steps and events never pass it; it may be INFINITY (open-ended). dt_out and tables are not
+   used: the caller sets the inputs (dep_set_inputs). params: np values, NULL: the defaults.
+   On failure *out is NULL and `error` says why. */
+int dep_open(const dep_model *model, const double *params, const dep_settings *settings,
+             dep_run **out, dep_error *error);
+
+/* Integrate to time t (>= the current time, <= t_end) with the integrator's own steps,
+   latches, stops, stick-slip and events inside. DEP_OK, else a dep_status with `error`
+   filled; after a failure the run cannot go on (dep_close it). */
+int dep_advance(dep_run *run, double t, dep_error *error);
+
+/* The model's inputs from now on: u_k(s) = values[k] + rates[k] (s - now), k < ni (rates
+   NULL: 0). A change restarts the step sequence (lambda found again); a hinge the new load
+   frees (stick-slip, a stop) changes mode in the next step. */
+int dep_set_inputs(dep_run *run, const double *values, const double *rates, dep_error *error);
+
+double dep_time(const dep_run *run);
+
+/* A hinge at the current state. */
+typedef struct dep_hinge_state {
+    double angle, rate;      /* rad, rad/s */
+    double force_x, force_y; /* N: force on member b from member a, ground frame */
+    double torque;           /* N m: lock torque on member b (latched, at a stop, stuck), else 0 */
+    int latched;             /* 1 once its latch engaged, else 0 (also without a latch) */
+    int has_latch;
+} dep_hinge_state;
+
+void dep_outputs(dep_run *run, double *outputs);          /* nout, at the current state */
+void dep_hinge_states(dep_run *run, dep_hinge_state *out); /* nh */
+void dep_close(dep_run *run);                            /* NULL is fine */
 
 /* The index of parameter `name`, or -1. */
 int dep_parameter_index(const dep_model *model, const char *name);

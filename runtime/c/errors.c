@@ -151,8 +151,38 @@ void dep_repr(double value, char *out, size_t size)
 }
 
 /* resolve_settings: ValueError for a bad value, SolverError for tol below round-off. */
+/* A time table: its input exists, it has points, its times are finite and non-decreasing
+   and its values finite. */
+static int check_table(const dep_model *model, const dep_input_table *table, dep_error *error)
+{
+    char message[300];
+    const char *name = table->input >= 0 && table->input < model->ni
+                       ? model->input_names[table->input] : NULL;
+    if (name == NULL) {
+        snprintf(message, sizeof message, "input table for input %d: the model has %d inputs",
+                 table->input, model->ni);
+        return dep_plain_error(error, DEP_SETTINGS_ERROR, message);
+    }
+    if (table->n < 1 || table->t == NULL || table->u == NULL) {
+        snprintf(message, sizeof message, "the time table of input %s has no points", name);
+        return dep_plain_error(error, DEP_SETTINGS_ERROR, message);
+    }
+    for (int i = 0; i < table->n; ++i) {
+        const char *fault = !isfinite(table->t[i]) ? "a time that is not finite"
+                            : !isfinite(table->u[i]) ? "a value that is not finite"
+                            : i > 0 && table->t[i] < table->t[i - 1] ? "a time before the one "
+                              "above it (times must not decrease)" : NULL;
+        if (fault != NULL) {
+            snprintf(message, sizeof message, "the time table of input %s has %s at point %d "
+                     "(t = %.9g s)", name, fault, i + 1, table->t[i]);
+            return dep_plain_error(error, DEP_SETTINGS_ERROR, message);
+        }
+    }
+    return DEP_OK;
+}
+
 int dep_check_settings(const dep_model *model, const double *p, const dep_settings *settings,
-                       dep_error *error)
+                       int open, dep_error *error)
 {
     char message[1200], number[40];
     const char *checks[3] = {"t_end must be a positive number of seconds, got %s",
@@ -172,6 +202,7 @@ int dep_check_settings(const dep_model *model, const double *p, const dep_settin
     }
     for (int i = 0; i < 3; ++i) {
         int ok = isfinite(values[i]) && values[i] > 0 && (i < 2 || values[i] < 1);
+        ok = ok || (open && i == 0 && values[i] == INFINITY) || (open && i == 1);
         if (!ok) {
             dep_repr(values[i], number, sizeof number);
             snprintf(message, sizeof message, checks[i], number);
@@ -183,6 +214,12 @@ int dep_check_settings(const dep_model *model, const double *p, const dep_settin
         snprintf(message, sizeof message, "max_steps must be a positive number of steps (0: "
                  "the default, %.0f), got %s", DEP_MAX_STEPS, number);
         return dep_plain_error(error, DEP_SETTINGS_ERROR, message);
+    }
+    for (int k = 0; k < settings->n_tables && !open; ++k) {
+        int status = check_table(model, &settings->tables[k], error);
+        if (status != DEP_OK) {
+            return status;
+        }
     }
     if (settings->tol < TOL_FLOOR) {
         char what[120], hint[60];

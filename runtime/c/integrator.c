@@ -95,6 +95,9 @@ void dep_run_attach_prior(const dep_run *run, dep_outcome *end)
    else at the current state. */
 int dep_run_record_until(dep_run *run, double t_until, const dep_outcome *end)
 {
+    if (!run->recording) {
+        return DEP_OK;
+    }
     int first, count = dep_recorder_pending(&run->recorder, t_until, &first), nq = run->nq;
     const dep_state *start = &run->state;
     for (int k = first; k < first + count; ++k) {
@@ -131,7 +134,7 @@ static double first_step(dep_run *run)
     memcpy(run->y + 2 * nq, s->work, (size_t)run->nd * sizeof(double));
     dep_stepper_derivative(&run->stepper, s, run->dy);
     return dep_initial_step(dep_stepper_rhs, &run->stepper, s->t, run->y, run->dy, run->ny,
-                            run->settings.tol, run->settings.t_end - s->t, run->scratch);
+                            run->settings.tol, run->t_stop - s->t, run->scratch);
 }
 
 /* The DOPRI error estimate less what the passes remove: its position and velocity parts
@@ -214,7 +217,8 @@ static int step_budget(dep_run *run, double h)
     const dep_rk_step *rk = run->outcome.rk;
     const dep_state *s = &run->outcome.state;
     double limit = run->settings.max_steps > 0 ? run->settings.max_steps : DEP_MAX_STEPS;
-    double taken = (double)run->tally.accepted, span = run->settings.t_end - s->t;
+    double end = isfinite(run->settings.t_end) ? run->settings.t_end : run->t_stop;
+    double taken = (double)run->tally.accepted, span = end - s->t;
     double left = span / h;
     if (rk->stiffness > STIFF_BOUND) {
         run->stiff_steps++;
@@ -258,7 +262,7 @@ static int advance(dep_run *run, double *h)
 {
     int failures = 0;
     for (;;) {
-        double remaining = run->settings.t_end - run->state.t;
+        double remaining = run->t_stop - run->state.t;
         dep_step_errors errors;
         dep_failure failure;
         dep_profile profile;
@@ -312,7 +316,8 @@ static int advance(dep_run *run, double *h)
 
 dep_settings dep_default_settings(const dep_model *model)
 {
-    dep_settings settings = {model->t_end, model->dt_out, model->tol, 1, NULL, NULL, 0.0};
+    dep_settings settings = {model->t_end, model->dt_out, model->tol, 1, NULL, NULL, 0.0,
+                             NULL, 0};
     return settings;
 }
 
@@ -335,11 +340,13 @@ static int setup_system(dep_run *run, const double *params)
     dep_mechanism *mechanism = NULL;
     int status;
     run->p = dep_doubles(arena, (size_t)m->np);
-    if (run->p == NULL) {
+    run->p_spare = dep_doubles(arena, (size_t)m->np);
+    if (run->p == NULL || run->p_spare == NULL) {
         return dep_plain_error(run->error, DEP_MEMORY_ERROR, "out of memory");
     }
     memcpy(run->p, params != NULL ? params : m->parameter_defaults, (size_t)m->np * sizeof(double));
-    if ((status = dep_check_settings(m, run->p, &run->settings, run->error)) != DEP_OK
+    if ((status = dep_check_settings(m, run->p, &run->settings, !run->recording,
+                                     run->error)) != DEP_OK
         || (status = dep_system_init(&run->system, m, run->p, run->settings.mechanics != 0,
                                      arena, run->error)) != DEP_OK) {
         return status;
@@ -380,8 +387,8 @@ static int setup(dep_run *run, const double *params, const dep_event *events, in
         || dep_change_init(&run->change, m->nq, m->nh, arena)) {
         return dep_plain_error(run->error, DEP_MEMORY_ERROR, "out of memory");
     }
-    status = dep_recorder_init(&run->recorder, &run->system, &run->settings, run->cs.capacity,
-                               arena);
+    status = run->recording ? dep_recorder_init(&run->recorder, &run->system, &run->settings,
+                                                run->cs.capacity, arena) : DEP_OK;
     if (status == DEP_SETTINGS_ERROR) {
         char what[200];
         snprintf(what, sizeof what, "t_end / dt_out = %.6g / %.6g asks for %.4g output times; "
@@ -424,24 +431,151 @@ static int report_progress(dep_run *run)
     return dep_plain_error(run->error, DEP_INTERRUPTED, message);
 }
 
-/* From the assembled initial state to t_end or a stopping event. */
-static int integrate_run(dep_run *run)
+/* The assembled initial state at t = 0, its modes and lambda_0, recorded. */
+static int begin(dep_run *run)
 {
-    double h;
-    long long steps = 0;
-    int status, stop = 0;
+    int status;
     if ((status = dep_run_assemble(run, run->q, run->qd)) != DEP_OK
         || (status = dep_run_start(run, run->q, run->qd)) != DEP_OK
-        || (status = dep_run_record_until(run, 0.0, NULL)) != DEP_OK
-        || (status = dep_watch_reset(&run->watch, 0.0, run->state.q, run->state.qd, -1, 0.0,
-                                     dep_run_rows(run, &run->state), run->error)) != DEP_OK) {
+        || (status = dep_run_record_until(run, 0.0, NULL)) != DEP_OK) {
         return status;
     }
-    h = first_step(run);
-    while (run->settings.t_end - run->state.t > run->h_min && !stop) {
-        if ((status = advance(run, &h)) != DEP_OK
-            || (status = dep_run_after_step(run, &stop)) != DEP_OK
+    return dep_watch_reset(&run->watch, 0.0, run->state.q, run->state.qd, -1, 0.0,
+                           dep_run_rows(run, &run->state), run->error);
+}
+
+/* Steps to t (or a stopping event). */
+static int run_until(dep_run *run, double t)
+{
+    long long steps = 0;
+    int status;
+    run->t_stop = t;
+    if (!isfinite(run->settings.t_end)) {
+        run->h_min = 64 * DEP_EPS * fmax(1.0, t);
+    }
+    while (t - run->state.t > run->h_min && !run->stopped) {
+        if (run->h_next == 0.0) {
+            run->h_next = first_step(run);
+        }
+        if ((status = advance(run, &run->h_next)) != DEP_OK
+            || (status = dep_run_after_step(run, &run->stopped)) != DEP_OK
             || (++steps % DEP_PROGRESS_STEPS == 0 && (status = report_progress(run)) != DEP_OK)) {
+            return status;
+        }
+    }
+    return DEP_OK;
+}
+
+/* Input k's parameter slots from now on: u(s) = value + rate (s - now), into `p`. */
+static void put_input(const dep_run *run, double *p, int k, double value, double rate)
+{
+    int slot = run->model->input_slots[k];
+    p[slot] = value - rate * run->state.t;
+    p[slot + 1] = rate;
+}
+
+/* Makes `p` (filled from run->p, then changed) the run's parameters if it differs from
+   them. A change takes the other buffer, so a binding that converts p once per pointer
+   sees it. 1 if it changed. */
+static int take_parameters(dep_run *run, double *p)
+{
+    if (memcmp(p, run->p, (size_t)run->model->np * sizeof *p) == 0) {
+        return 0;
+    }
+    run->p_spare = run->p;
+    run->p = p;
+    run->system.p = p;
+    if (run->system.mechanism != NULL) {
+        run->system.mechanism->p = p;
+    }
+    return 1;
+}
+
+/* The spare parameter buffer, filled with the run's parameters. */
+static double *spare_parameters(dep_run *run)
+{
+    memcpy(run->p_spare, run->p, (size_t)run->model->np * sizeof *run->p);
+    return run->p_spare;
+}
+
+/* After the inputs changed at the current state: lambda and the step sequence anew. The
+   events' last values stay those before the change, so a mode the new load ends (a stuck
+   hinge it frees, a stop it pulls away from) is found crossing in the next step. */
+static int inputs_changed(dep_run *run)
+{
+    dep_state *s = &run->state;
+    memcpy(run->q, s->q, (size_t)run->nq * sizeof(double));
+    memcpy(run->qd, s->qd, (size_t)run->nq * sizeof(double));
+    memcpy(run->work, s->work, (size_t)run->nd * sizeof(double));
+    run->h_next = 0.0;
+    return dep_run_restart(run, s->t, run->q, run->qd, run->work, "inputs");
+}
+
+/* A table's value and slope on the piece starting at t (right-continuous at a jump). */
+static void table_piece(const dep_input_table *table, double t, double *value, double *rate)
+{
+    int n = table->n, i = 0;
+    while (i + 1 < n && table->t[i + 1] <= t) {
+        ++i;
+    }
+    *rate = 0.0;
+    if (t < table->t[0] || i == n - 1) {
+        *value = t < table->t[0] ? table->u[0] : table->u[n - 1];
+        return;
+    }
+    *rate = (table->u[i + 1] - table->u[i]) / (table->t[i + 1] - table->t[i]);
+    *value = table->u[i] + *rate * (t - table->t[i]);
+}
+
+/* The next time after t where a table's piece ends (t_end if none). */
+static double next_break(const dep_run *run, double t)
+{
+    double next = run->settings.t_end;
+    for (int k = 0; k < run->settings.n_tables; ++k) {
+        const dep_input_table *table = &run->settings.tables[k];
+        for (int i = 0; i < table->n; ++i) {
+            if (table->t[i] > t + run->h_min) {
+                next = fmin(next, table->t[i]);
+                break;
+            }
+        }
+    }
+    return next;
+}
+
+/* The tables' pieces at the current time into the inputs' slots. */
+static int apply_tables(dep_run *run)
+{
+    double *p = spare_parameters(run);
+    for (int k = 0; k < run->settings.n_tables; ++k) {
+        const dep_input_table *table = &run->settings.tables[k];
+        double value, rate;
+        table_piece(table, run->state.t, &value, &rate);
+        put_input(run, p, table->input, value, rate);
+    }
+    return take_parameters(run, p) ? inputs_changed(run) : DEP_OK;
+}
+
+/* From the assembled initial state to t_end or a stopping event, piece by piece of the
+   input tables. */
+static int integrate_run(dep_run *run)
+{
+    double *p = spare_parameters(run);
+    int status;
+    for (int k = 0; k < run->settings.n_tables; ++k) { /* the tables' values at t = 0 */
+        const dep_input_table *table = &run->settings.tables[k];
+        double value, rate;
+        table_piece(table, 0.0, &value, &rate);
+        put_input(run, p, table->input, value, rate);
+    }
+    take_parameters(run, p);
+    if ((status = begin(run)) != DEP_OK) {
+        return status;
+    }
+    while (run->settings.t_end - run->state.t > run->h_min && !run->stopped) {
+        if ((status = run_until(run, next_break(run, run->state.t))) != DEP_OK
+            || (run->settings.n_tables > 0 && !run->stopped
+                && (status = apply_tables(run)) != DEP_OK)) {
             return status;
         }
     }
@@ -491,35 +625,153 @@ static int finish(dep_run *run, dep_result *result)
     return DEP_OK;
 }
 
-int dep_simulate(const dep_model *model, const double *params, const dep_settings *settings,
-                 const dep_event *events, int n_events, dep_result *result, dep_error *error)
+/* A new run of `model`: its settings checked, its system, events and (when `recording`)
+   its recorder set up. NULL with `error` filled on failure. */
+static dep_run *new_run(const dep_model *model, const double *params,
+                        const dep_settings *settings, const dep_event *events, int n_events,
+                        int recording, dep_error *error)
 {
     dep_run *run = calloc(1, sizeof *run);
     dep_error_clear(error);
-    memset(result, 0, sizeof *result);
     if (run == NULL) {
-        return dep_plain_error(error, DEP_MEMORY_ERROR, "out of memory");
+        dep_plain_error(error, DEP_MEMORY_ERROR, "out of memory");
+        return NULL;
     }
     if (model->abi != DEP_MODEL_ABI) {
         free(run);
-        return dep_plain_error(error, DEP_SETTINGS_ERROR, "the model was generated for another "
-                               "version of depsim_model.h; regenerate it");
+        dep_plain_error(error, DEP_SETTINGS_ERROR, "the model was generated for another "
+                        "version of depsim_model.h; regenerate it");
+        return NULL;
     }
     run->model = model;
     run->settings = settings != NULL ? *settings : dep_default_settings(model);
     run->error = error;
-    run->h_min = 64 * DEP_EPS * fmax(1.0, run->settings.t_end);
+    run->recording = recording;
+    run->t_stop = run->settings.t_end;
+    run->h_min = 64 * DEP_EPS * fmax(1.0, isfinite(run->settings.t_end) ? run->settings.t_end
+                                                                          : 1.0);
     run->h_cap = INFINITY;
     run->err_previous = 1.0;
     dep_tally_init(&run->tally);
-    int status = setup(run, params, events, n_events);
-    if (status == DEP_OK) {
-        status = integrate_run(run);
+    if (setup(run, params, events, n_events) != DEP_OK) {
+        dep_close(run);
+        return NULL;
     }
+    return run;
+}
+
+int dep_simulate(const dep_model *model, const double *params, const dep_settings *settings,
+                 const dep_event *events, int n_events, dep_result *result, dep_error *error)
+{
+    memset(result, 0, sizeof *result);
+    dep_run *run = new_run(model, params, settings, events, n_events, 1, error);
+    if (run == NULL) {
+        return error->code;
+    }
+    int status = integrate_run(run);
     if (status == DEP_OK) {
         status = finish(run, result);
     }
-    dep_arena_free(&run->arena);
-    free(run);
+    dep_close(run);
     return status;
+}
+
+/* ---- one run advanced piece by piece ------------------------------------------------------- */
+
+int dep_open(const dep_model *model, const double *params, const dep_settings *settings,
+             dep_run **out, dep_error *error)
+{
+    dep_run *run = new_run(model, params, settings, NULL, 0, 0, error);
+    *out = NULL;
+    if (run == NULL) {
+        return error->code;
+    }
+    int status = begin(run);
+    if (status != DEP_OK) {
+        dep_close(run);
+        return status;
+    }
+    *out = run;
+    return DEP_OK;
+}
+
+int dep_advance(dep_run *run, double t, dep_error *error)
+{
+    char message[160];
+    dep_error_clear(error);
+    run->error = error;
+    if (!(t >= run->state.t - run->h_min && t <= run->settings.t_end)) {
+        snprintf(message, sizeof message, "cannot advance to t = %.17g s: the run is at "
+                 "t = %.17g s and ends at %.17g s", t, run->state.t, run->settings.t_end);
+        return dep_plain_error(error, DEP_SETTINGS_ERROR, message);
+    }
+    return run_until(run, t);
+}
+
+int dep_set_inputs(dep_run *run, const double *values, const double *rates, dep_error *error)
+{
+    double *p = spare_parameters(run);
+    dep_error_clear(error);
+    run->error = error;
+    for (int k = 0; k < run->model->ni; ++k) {
+        double rate = rates != NULL ? rates[k] : 0.0;
+        if (!isfinite(values[k]) || !isfinite(rate)) {
+            char message[200];
+            snprintf(message, sizeof message, "input %s: its value and rate must be finite "
+                     "numbers", run->model->input_names[k]);
+            return dep_plain_error(error, DEP_SETTINGS_ERROR, message);
+        }
+        put_input(run, p, k, values[k], rate);
+    }
+    return take_parameters(run, p) ? inputs_changed(run) : DEP_OK;
+}
+
+double dep_time(const dep_run *run)
+{
+    return run->state.t;
+}
+
+void dep_outputs(dep_run *run, double *outputs)
+{
+    const dep_state *s = &run->state;
+    if (run->model->nout > 0) {
+        run->model->outputs(s->q, s->qd, s->t, run->p, outputs);
+    }
+}
+
+void dep_hinge_states(dep_run *run, dep_hinge_state *out)
+{
+    const dep_model *m = run->model;
+    const dep_state *s = &run->state;
+    int nh = m->nh;
+    if (nh == 0) {
+        return;
+    }
+    double *angles = run->loads.forces, *rates = run->loads.torques;
+    m->hinge_angles(s->q, run->p, angles);
+    m->hinge_rates(s->q, s->qd, run->p, rates);
+    for (int k = 0; k < nh; ++k) {
+        const dep_hinge_mechanics *h = &run->system.hinges[k];
+        out[k].angle = angles[k];
+        out[k].rate = rates[k];
+        out[k].has_latch = h->has_latch;
+        out[k].latched = h->has_latch && h->latch_state == DEP_LATCHED;
+    }
+    dep_hinge_forces(&run->loads, s->lam, run->loads.forces);
+    for (int k = 0; k < nh; ++k) {
+        out[k].force_x = run->loads.forces[2 * k];
+        out[k].force_y = run->loads.forces[2 * k + 1];
+    }
+    dep_lock_torques(m, &run->cs, s->lam, run->loads.torques);
+    for (int k = 0; k < nh; ++k) {
+        out[k].torque = isnan(run->loads.torques[k]) ? 0.0 : run->loads.torques[k];
+    }
+}
+
+void dep_close(dep_run *run)
+{
+    if (run != NULL) {
+        dep_arena_free(&run->arena);
+        free(run);
+    }
 }

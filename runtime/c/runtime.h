@@ -25,7 +25,7 @@ typedef struct dep_prior {
     double *qd, *qdd;
 } dep_prior;
 
-typedef struct dep_run {
+struct dep_run { /* typedef in depsim.h */
     const dep_model *model;
     dep_settings settings;
     dep_error *error;
@@ -47,6 +47,7 @@ typedef struct dep_run {
     dep_row *response_rows; /* DEP_MAX_ADDED: the added rows a callback sees */
     double h_min, h_cap;
     int nq, nd, ny;
+    double *p_spare; /* np: the other parameter buffer (inputs changing, take_parameters) */
     double *p, *scratch, *y, *dy, *q, *qd, *lam, *work, *predicted, *mass_qd;
     double *dense_J, *dense_lam;
     double *tangent, *normal; /* ny, 2 capacity + 2 nq: the step error's tangential part */
@@ -55,7 +56,11 @@ typedef struct dep_run {
     dep_active_rows state_rows, dense_rows;
     dep_event_record *records;
     int n_records, records_capacity;
-} dep_run;
+    double t_stop;   /* the end of the current dep_advance: no step passes it */
+    double h_next;   /* the step size to try next; 0: none yet (first_step) */
+    int recording;   /* 1: outputs at the output times (dep_simulate); 0: dep_open's runs */
+    int stopped;     /* a terminal event ended the run */
+};
 
 int dep_run_pass_error(dep_run *run, const dep_failure *failure, double t);
 int dep_run_restart(dep_run *run, double t, const double *q, const double *qd,

@@ -32,8 +32,9 @@ int dep_solver_error(dep_error *error, int has_t, double t, const char *stage, c
                      const char *hint);
 int dep_plain_error(dep_error *error, int code, const char *message);
 void dep_repr(double value, char *out, size_t size); /* Python's repr(float) */
+/* open: dep_open's settings (t_end may be INFINITY; dt_out and tables unused). */
 int dep_check_settings(const dep_model *model, const double *p, const dep_settings *settings,
-                       dep_error *error);
+                       int open, dep_error *error);
 
 typedef struct dep_mass {
     int n, diagonal;

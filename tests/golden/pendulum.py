@@ -36,6 +36,9 @@ ENERGIES = ('kinetic', 'gravity')
 DISSIPATORS = ()
 TREE_JOINTS = ('pivot',)
 TREE_HELD = (3,)
+INPUTS = ()
+INPUT_UNITS = ()
+INPUT_SLOTS = ()
 
 T_END = 10.0
 TOL = 1e-09

@@ -68,6 +68,9 @@ def initial_state(p):
 # Hand-made: the initial state is given whole, so there is no assembly tree (NV = 0).
 TREE_JOINTS = ()
 TREE_HELD = ()
+INPUTS = ()
+INPUT_UNITS = ()
+INPUT_SLOTS = ()
 
 
 def tree_values(p):
