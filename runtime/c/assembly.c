@@ -167,7 +167,7 @@ static int worst_row(const assembly *x)
 
 static int fail(assembly *x, dep_run *run, int rates, double gap)
 {
-    char given[300], what[512], joint[DEP_NAME_MAX + 16] = "", row[DEP_NAME_MAX + 8] = "";
+    char given[300], what[768], joint[DEP_NAME_MAX + 16] = "", row[DEP_NAME_MAX + 8] = "";
     int worst = worst_row(x);
     given_text(x, run, rates, given, sizeof given);
     if (worst < x->nc) {

@@ -267,7 +267,9 @@ static int advance(dep_run *run, double *h)
         dep_failure failure;
         dep_profile profile;
         *h = fmin(*h, run->h_cap);
-        *h = *h >= remaining - run->h_min ? remaining : *h;
+        double proposed = *h; /* before a cut to t_stop: what the next step starts from */
+        int cut = *h >= remaining - run->h_min;
+        *h = cut ? remaining : *h;
         dep_profile_set(&profile, &run->history, *h);
         dep_history_predict(&run->history, &profile, run->predicted);
         int status = dep_step(&run->stepper, &run->state, &profile, run->predicted,
@@ -298,6 +300,12 @@ static int advance(dep_run *run, double *h)
             run->h_cap = run->h_cap < 1e300 ? run->h_cap * CAP_RELAX : INFINITY;
             double taken = *h;
             *h *= fmin(fac, dep_convergence_factor(&run->outcome.reports[0]));
+            if (cut && *h > taken) {
+                /* a step cut short to land on t_stop (an output of dep_advance, a table's
+                   point) says nothing against the size it was cut from */
+                *h = fmax(*h, proposed);
+                taken = fmax(taken, proposed);
+            }
             return step_budget(run, taken);
         }
         run->tally.rejected++;
