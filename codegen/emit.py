@@ -5,7 +5,6 @@ Output is byte-for-byte reproducible: no timestamps, no absolute paths, fixed or
 from __future__ import annotations
 
 import hashlib
-import importlib.util
 import re
 from pathlib import Path
 from types import ModuleType
@@ -13,6 +12,7 @@ from types import ModuleType
 import jinja2
 
 from depsim.dsl import ir
+from depsim.runtime.binding import load_module
 
 from .derive import SymbolicSystem, derive
 from .lower import ModuleView, lower_module
@@ -78,10 +78,4 @@ def compile_numpy(model: ir.Model, out_dir: Path, system: SymbolicSystem | None 
 
 def load_generated(path: Path) -> ModuleType:
     """Import a generated module from its file (not added to sys.modules)."""
-    path = Path(path)
-    spec = importlib.util.spec_from_file_location(f"depsim_generated_{path.stem}", path)
-    if spec is None or spec.loader is None:
-        raise ImportError(f"cannot import generated module {path}")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_module(path)

@@ -54,26 +54,56 @@ class Model:
     def compile(self, target: str = "numpy", out_dir: str | os.PathLike | None = None) -> Simulator:
         """Generate code for `target` and load it: "numpy" (a Python module) or "c" (a C
         folder whose model is built into a shared library). Either runs on the integrator
-        core (built once per cache). Artifacts are cached under `out_dir` or the user cache,
-        keyed by the model hash, element counts and depsim version (the C build also by
-        compiler and flags)."""
+        core (built once per cache). The code is generated into `out_dir`, else into the
+        user cache (`generated_code`), keyed by the model text's hash, its file name, the
+        element counts and depsim's version, and taken from there without deriving anything
+        the next time (`Simulator.cached`); the C build is cached by compiler and flags."""
         if target == "fmu":
             raise UsageError("an FMU is not run from Python: write it with "
                              "Model.export_fmu(path) (docs/fmu.md)")
         if target not in TARGETS:
             raise UsageError(f"unknown target '{target}' (available: {', '.join(TARGETS)})")
-        directory = Path(out_dir) if out_dir is not None else _cache_dir(self.ir, target)
         from depsim.runtime.core import core
 
         core()  # the integrator: built once per cache; CBuildError without a C compiler
+        if out_dir is not None:
+            return Simulator(self, _generate(self.ir, target, Path(out_dir)), target)
+        artifact, reused = self.generated_code(target)
+        folder = artifact.parent if artifact.is_file() else artifact
+        return Simulator(self, _load(target, artifact), target,
+                         cached=folder if reused else None)
+
+    def generated_code(self, target: str) -> tuple[Path, bool]:
+        """The model's generated code for `target` in the cache (a NumPy module's file, a C
+        target's folder), derived and emitted unless it is there already; and whether it
+        was (then nothing was derived)."""
+        artifact = self.cached_code(target)
+        if artifact is not None:
+            return artifact, True
+        directory, key = _cache_dir(self.ir, target)
         if target == "c":
             from depsim.codegen import compile_c
-            from depsim.runtime.binding import load_folder
 
-            return Simulator(self, load_folder(compile_c(self.ir, directory)), target)
-        from depsim.codegen import compile_numpy, load_generated
+            artifact = compile_c(self.ir, directory)
+        else:
+            from depsim.codegen import compile_numpy
 
-        return Simulator(self, load_generated(compile_numpy(self.ir, directory)), target)
+            artifact = compile_numpy(self.ir, directory)
+        _write_atomic(directory / CACHE_STAMP,
+                      f"{key}\n{artifact.name if artifact != directory else '.'}")
+        return artifact.resolve(), False
+
+    def cached_code(self, target: str) -> Path | None:
+        """The code `compile(target)` generated before for this model text, file name,
+        element counts and depsim version (a NumPy module's file, a C target's folder), or
+        None. Taking it does no symbolic work. The stamp naming it is written last, so a
+        half-written entry is never taken."""
+        directory, key = _cache_dir(self.ir, target)
+        stamp = directory / CACHE_STAMP
+        found = stamp.read_text(encoding="utf-8").split("\n") if stamp.is_file() else []
+        if len(found) == 2 and found[0] == key and (directory / found[1]).exists():
+            return (directory / found[1]).resolve()
+        return None
 
     def export_fmu(self, path: str | os.PathLike) -> Path:
         """Write the model as an FMI 2.0 Co-Simulation FMU (a `.fmu` archive with its
@@ -84,22 +114,60 @@ class Model:
         return compile_fmu(self.ir, path)
 
 
-def _cache_dir(model: ir.Model, target: str) -> Path:
+CACHE_STAMP = "depsim-generated"  # in a cached folder: its key, then the artifact's name
+
+
+def _cache_dir(model: ir.Model, target: str) -> tuple[Path, str]:
+    """The cache folder of the model's generated code and its key: the model text's hash,
+    its file name (in the generated header), the element counts, depsim's version and the
+    target. Parameters never enter it: one generated module serves every parameter set."""
     from depsim.runtime.core import cache_root
 
-    root = cache_root()
     elements = ",".join(f"{b.name}={b.elements}" for b in model.beams)
-    key = hashlib.sha256(f"{model.source_sha256}|{elements}|{__version__}|{target}".encode())
-    return root / f"{model.name}-{key.hexdigest()[:16]}"
+    source = model.source_file.replace("\\", "/").rsplit("/", 1)[-1]
+    key = hashlib.sha256(f"{model.source_sha256}|{source}|{elements}|{__version__}|{target}"
+                         .encode()).hexdigest()
+    return cache_root() / "models" / f"{model.name}-{key[:16]}", key
+
+
+def _generate(model: ir.Model, target: str, directory: Path):
+    """Derive and emit the model's code into `directory` (not the cache); the module."""
+    if target == "c":
+        from depsim.codegen import compile_c
+        from depsim.runtime.binding import load_folder
+
+        return load_folder(compile_c(model, directory))
+    from depsim.codegen import compile_numpy, load_generated
+
+    return load_generated(compile_numpy(model, directory))
+
+
+def _load(target: str, path: Path):
+    """A module generated before: a C folder (its library cached by its own hash) or a
+    NumPy module's file."""
+    if target == "c":
+        from depsim.runtime.binding import load_folder
+
+        return load_folder(path)
+    from depsim.runtime.binding import load_module
+
+    return load_module(path)
+
+
+def _write_atomic(path: Path, text: str) -> None:
+    temporary = path.with_name(f".{path.name}.{os.getpid()}")
+    temporary.write_text(text, encoding="utf-8")
+    os.replace(temporary, path)
 
 
 class Simulator:
     """A compiled model: runs it for any parameter vector."""
 
-    def __init__(self, model: Model, module, target: str):
+    def __init__(self, model: Model, module, target: str, cached: Path | None = None):
         self.model = model
         self.module = module
         self.target = target
+        self.cached = cached  # the cache folder its code was reused from, or None
         self.parameter_names: tuple[str, ...] = tuple(module.PARAMETERS)
         self.defaults = np.array(module.PARAMETER_DEFAULTS, dtype=float)
 

@@ -270,18 +270,35 @@ def _compile(args) -> int:
         raise _usage(f"-o {args.out}: it exists and is not a folder; compile writes a folder "
                      "of files (give a new or an existing folder)")
     model = _load(args)
+    generated, reused = model.generated_code(args.target)  # derived once, then cached
+    written = _copy_generated(generated, out)
+    print(f"wrote {written}" + (" (generated before, from the cache: nothing derived)"
+                                if reused else ""))
     if args.target == "c":
-        from depsim.codegen import compile_c
-        from depsim.codegen.c_emit import c_program_name
-
-        folder = compile_c(model.ir, out)
-        print(f"wrote {folder}: build with `make -C {folder}`, "
-              f"run `{folder}/{c_program_name(model.ir)} --help`")
-        return EXIT_OK
-    from depsim.codegen import compile_numpy
-
-    print(f"wrote {compile_numpy(model.ir, out)}")
+        print(f"build with `make -C {written}`, run `{written}/{_program_name(written)} --help`")
     return EXIT_OK
+
+
+def _copy_generated(cached: Path, out: Path) -> Path:
+    """The cached NumPy module (a file) or C folder's sources into `out`."""
+    import shutil
+
+    out.mkdir(parents=True, exist_ok=True)
+    if cached.is_file():
+        shutil.copyfile(cached, out / cached.name)
+        return out / cached.name
+    for path in sorted(cached.iterdir()):
+        if path.is_file() and (path.suffix in (".c", ".h") or path.name == "Makefile"):
+            shutil.copyfile(path, out / path.name)
+    return out
+
+
+def _program_name(folder: Path) -> str:
+    """The program the C folder's Makefile builds: the first target of its `all:` line."""
+    for line in (folder / "Makefile").read_text(encoding="utf-8").splitlines():
+        if line.startswith("all:"):
+            return line.split()[1]
+    raise AssertionError(f"{folder / 'Makefile'} has no `all:` line")
 
 
 def _compile_fmu(args) -> int:
@@ -326,6 +343,8 @@ def _run(args) -> int:
             from depsim.runtime import animate
             animate(result, sim.module, args.animate)
     print(result.report())
+    print(f"  code: reused from the cache ({sim.cached}): nothing derived" if sim.cached
+          else "  code: derived and generated (kept in the cache for the next run)")
     return EXIT_OK
 
 

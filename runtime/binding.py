@@ -18,9 +18,11 @@ progress check and `simulate` raises it.
 from __future__ import annotations
 
 import contextlib
+import importlib.util
 import math
 import threading
 from pathlib import Path
+from types import ModuleType
 
 import numpy as np
 
@@ -127,6 +129,17 @@ def build_model_library(folder, flags: tuple[str, ...] | None = None) -> Path:
     extra = {} if flags is None else {"flags": tuple(flags)}
     return build_shared_library([source], folder / "build", MODEL_LIBRARY, include=(folder,),
                                 **extra)
+
+
+def load_module(path) -> ModuleType:
+    """Import a generated NumPy module from its file (not added to sys.modules)."""
+    path = Path(path)
+    spec = importlib.util.spec_from_file_location(f"depsim_generated_{path.stem}", path)
+    if spec is None or spec.loader is None:
+        raise ImportError(f"cannot import generated module {path}")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
 def load_folder(folder) -> CModule:

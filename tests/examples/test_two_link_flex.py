@@ -217,7 +217,7 @@ def test_run_with_elements_uses_them_and_plots(cli, tmp_path, monkeypatch):
                "--dt-out", "0.001", "-o", tmp_path / "out.csv", "--plot", tmp_path / "out.png")
     assert done.returncode == 0, done.stderr
     assert "Traceback" not in done.stderr
-    (generated,) = cache.glob("*/two_link_flex.py")
+    (generated,) = cache.glob("models/*/two_link_flex.py")
     module = load_generated(generated)
     assert module.NQ == 4 * (1 + 1) + 4 * (3 + 1)
     lines = (tmp_path / "out.csv").read_text().splitlines()
