@@ -111,6 +111,9 @@ typedef struct dep_multipliers { /* scratch of the iteration and its Schur-compl
     const dep_mass *mass;
     long long schur_id, factorizations;
     int schur_nc, schur_explicit, schur_factored;
+    int schur_envelope;        /* 1: S and L held in envelope form (a diagonal mass matrix) */
+    int *first, *offset;       /* capacity: row a of S spans columns first[a]..a, from offset[a] */
+    int *column_start, *column_rows; /* nq + 1, capacity * nq: the rows touching each column */
     double *S, *L, *diag, *MinvJT, *column;
     double *x, *r, *z, *d, *Sd, *inv_diag, *step, *trial_lam, *work;
 } dep_multipliers;

@@ -3,11 +3,15 @@
  *     lambda^m = lambda^{m-1} - alpha * A v^{m-1} / C
  *
  * v is one level's constraint error, C that level's sensitivity to lambda_{i+1}, A ~ S^-1
- * with S = Phi_q M^-1 Phi_q^T. For fewer than EXPLICIT_BELOW rows S is formed once per
- * Jacobian and A applied by its Cholesky factor (a small matrix, factorised once per Jacobian
- * and reused by every pass and trial that sees it); otherwise, or when S is singular (a dead
- * point, redundant rows), by Jacobi-preconditioned conjugate gradients (products with Phi_q,
- * M^-1, Phi_q^T only). The constraint system itself is never solved: A only preconditions
+ * with S = Phi_q M^-1 Phi_q^T. With a diagonal mass matrix (rigid bodies) S is formed once per
+ * Jacobian from the non-zeros of Phi_q alone (S_ab = sum_j J_aj J_bj / M_jj over the
+ * coordinates both rows touch) and held in envelope (skyline) form, row a from its first
+ * non-zero column: a chain's rows give a band, so forming and factorising S costs O(n) per
+ * Jacobian instead of O(n^3). With another mass matrix (beams), S is formed densely below
+ * EXPLICIT_BELOW rows. A is applied by the Cholesky factor of S (factorised once per Jacobian
+ * and reused by every pass and trial that sees it); above that size, or when S is singular
+ * (a dead point, redundant rows), by Jacobi-preconditioned conjugate gradients (products with
+ * Phi_q, M^-1, Phi_q^T only). The constraint system itself is never solved: A only preconditions
  * the iteration, which measures the error and corrects. The step is halved while a trial
  * does not reduce max|v| (docs/method.md, 2).
  */
@@ -34,6 +38,10 @@ int dep_multipliers_init(dep_multipliers *mp, const dep_mass *mass, int nq, int 
     mp->S = dep_doubles(arena, nc * nc);
     mp->L = dep_doubles(arena, nc * nc);
     mp->MinvJT = dep_doubles(arena, nc * (size_t)nq);
+    mp->first = dep_bytes(arena, nc * sizeof *mp->first);
+    mp->offset = dep_bytes(arena, (nc + 1) * sizeof *mp->offset);
+    mp->column_start = dep_bytes(arena, ((size_t)nq + 1) * sizeof *mp->column_start);
+    mp->column_rows = dep_bytes(arena, nc * (size_t)nq * sizeof *mp->column_rows);
     mp->column = dep_doubles(arena, (size_t)nq);
     mp->work = dep_doubles(arena, (size_t)nq);
     double **vectors[] = {&mp->diag, &mp->x, &mp->r, &mp->z, &mp->d, &mp->Sd, &mp->inv_diag,
@@ -147,6 +155,126 @@ static void cholesky_solve(const double *L, int n, const double *b, double *x)
     }
 }
 
+/* ---- S in envelope form (a diagonal mass matrix) -------------------------------------- */
+
+/* S_ab of the envelope (b in first[a]..a). */
+#define ENVELOPE(mp, M, a, b) ((M)[(mp)->offset[a] + (b) - (mp)->first[a]])
+
+/* Forms S from the non-zeros of J: the rows touching each coordinate, each row's envelope
+   from the first row it shares a coordinate with, then S_ab += J_aj J_bj / M_jj. */
+static void envelope_schur(dep_multipliers *mp, const double *J, int nc)
+{
+    int nq = mp->nq, *start = mp->column_start, *rows = mp->column_rows, *first = mp->first;
+    const double *inverse = mp->mass->inverse_diagonal;
+    memset(start, 0, ((size_t)nq + 1) * sizeof *start);
+    for (int a = 0; a < nc; ++a) {
+        for (int j = 0; j < nq; ++j) {
+            start[j + 1] += J[(size_t)a * (size_t)nq + (size_t)j] != 0.0;
+        }
+    }
+    for (int j = 0; j < nq; ++j) {
+        start[j + 1] += start[j];
+    }
+    for (int a = 0; a < nc; ++a) {
+        first[a] = a;
+    }
+    for (int a = 0; a < nc; ++a) { /* rows by coordinate, ascending; start[j] moves along */
+        for (int j = 0; j < nq; ++j) {
+            if (J[(size_t)a * (size_t)nq + (size_t)j] != 0.0) {
+                rows[start[j]++] = a;
+            }
+        }
+    }
+    for (int j = nq; j > 0; --j) { /* start[j] back to the beginning of column j */
+        start[j] = start[j - 1];
+    }
+    start[0] = 0;
+    for (int j = 0; j < nq; ++j) {
+        for (int k = start[j]; k < start[j + 1]; ++k) {
+            int a = rows[k], lowest = rows[start[j]];
+            first[a] = lowest < first[a] ? lowest : first[a];
+        }
+    }
+    mp->offset[0] = 0;
+    for (int a = 0; a < nc; ++a) {
+        mp->offset[a + 1] = mp->offset[a] + a - first[a] + 1;
+    }
+    memset(mp->S, 0, (size_t)mp->offset[nc] * sizeof *mp->S);
+    for (int j = 0; j < nq; ++j) {
+        for (int k = start[j]; k < start[j + 1]; ++k) {
+            int a = rows[k];
+            double weight = J[(size_t)a * (size_t)nq + (size_t)j] * inverse[j];
+            for (int m = start[j]; m <= k; ++m) {
+                int b = rows[m];
+                ENVELOPE(mp, mp->S, a, b) += weight * J[(size_t)b * (size_t)nq + (size_t)j];
+            }
+        }
+    }
+    for (int a = 0; a < nc; ++a) {
+        mp->diag[a] = ENVELOPE(mp, mp->S, a, a);
+    }
+}
+
+/* The Cholesky factor of the envelope S in the same envelope (no fill outside it); 0 when S
+   is not positive definite to working precision. */
+static int envelope_factor(dep_multipliers *mp, int nc)
+{
+    double largest = 0.0;
+    for (int a = 0; a < nc; ++a) {
+        largest = fmax(largest, mp->diag[a]);
+    }
+    for (int i = 0; i < nc; ++i) {
+        for (int j = mp->first[i]; j <= i; ++j) {
+            int from = mp->first[i] > mp->first[j] ? mp->first[i] : mp->first[j];
+            double sum = ENVELOPE(mp, mp->S, i, j);
+            for (int k = from; k < j; ++k) {
+                sum -= ENVELOPE(mp, mp->L, i, k) * ENVELOPE(mp, mp->L, j, k);
+            }
+            if (j < i) {
+                ENVELOPE(mp, mp->L, i, j) = sum / ENVELOPE(mp, mp->L, j, j);
+            } else if (!(sum > 1e-12 * largest)) {
+                return 0;
+            } else {
+                ENVELOPE(mp, mp->L, i, i) = sqrt(sum);
+            }
+        }
+    }
+    mp->factorizations++;
+    return 1;
+}
+
+static void envelope_solve(const dep_multipliers *mp, int n, const double *b, double *x)
+{
+    for (int i = 0; i < n; ++i) { /* L y = b */
+        double sum = b[i];
+        for (int k = mp->first[i]; k < i; ++k) {
+            sum -= ENVELOPE(mp, mp->L, i, k) * x[k];
+        }
+        x[i] = sum / ENVELOPE(mp, mp->L, i, i);
+    }
+    for (int i = n - 1; i >= 0; --i) { /* L^T x = y, column by column */
+        x[i] /= ENVELOPE(mp, mp->L, i, i);
+        for (int k = mp->first[i]; k < i; ++k) {
+            x[k] -= ENVELOPE(mp, mp->L, i, k) * x[i];
+        }
+    }
+}
+
+static void envelope_apply(const dep_multipliers *mp, int n, const double *x, double *out)
+{
+    memset(out, 0, (size_t)n * sizeof *out);
+    for (int i = 0; i < n; ++i) {
+        for (int j = mp->first[i]; j < i; ++j) {
+            double s = ENVELOPE(mp, mp->S, i, j);
+            out[i] += s * x[j];
+            out[j] += s * x[i];
+        }
+        out[i] += ENVELOPE(mp, mp->S, i, i) * x[i];
+    }
+}
+
+/* ---- S, its factor and its solves -------------------------------------------------------- */
+
 static void schur_for(dep_multipliers *mp, const double *J, long long id, int nc)
 {
     int nq = mp->nq;
@@ -155,6 +283,13 @@ static void schur_for(dep_multipliers *mp, const double *J, long long id, int nc
     }
     mp->schur_id = id;
     mp->schur_nc = nc;
+    mp->schur_envelope = mp->mass->inverse_diagonal != NULL;
+    if (mp->schur_envelope) {
+        envelope_schur(mp, J, nc);
+        mp->schur_explicit = 1;
+        mp->schur_factored = envelope_factor(mp, nc);
+        return;
+    }
     mp->schur_explicit = nc < EXPLICIT_BELOW;
     for (int b = 0; b < nc; ++b) { /* row b of (M^-1 J^T)^T */
         dep_mass_solve(mp->mass, J + (size_t)b * (size_t)nq, mp->MinvJT + (size_t)b * (size_t)nq);
@@ -182,7 +317,11 @@ static int solve_schur(dep_multipliers *mp, const double *J, int n, const double
                        long long *iterations)
 {
     if (mp->schur_factored) {
-        cholesky_solve(mp->L, n, b, mp->x);
+        if (mp->schur_envelope) {
+            envelope_solve(mp, n, b, mp->x);
+        } else {
+            cholesky_solve(mp->L, n, b, mp->x);
+        }
         return 1;
     }
     return pcg(mp, J, n, b, iterations);
@@ -203,6 +342,10 @@ static void schur_apply(dep_multipliers *mp, const double *J, int nc, const doub
                         double *out)
 {
     int nq = mp->nq;
+    if (mp->schur_envelope) {
+        envelope_apply(mp, nc, x, out);
+        return;
+    }
     if (mp->schur_explicit) {
         for (int a = 0; a < nc; ++a) {
             out[a] = dot(mp->S + (size_t)a * (size_t)nc, x, nc);

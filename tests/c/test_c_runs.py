@@ -113,11 +113,14 @@ def test_result_fields_match(runs):
         assert getattr(got, field) == getattr(expected, field), field
     np.testing.assert_array_equal(got.parameters, expected.parameters)
     assert got.q.shape == expected.q.shape and got.lam.shape == expected.lam.shape
-    # at output times: round-off for positions and velocities; with the interpolated
-    # lambda (not a converged one) for accelerations, so of the size of its variation
+    # at output times: round-off for positions and velocities; for accelerations the
+    # residual of the interpolated lambda (not a converged one), ~1e-4 here. The two targets'
+    # lambdas agree only as far as the acceleration level determines them (both converge to
+    # |v_acc| ~ 1e-13 at the steps; lambda moves by v_acc / the smallest eigenvalue of S), so
+    # their residuals agree to a small fraction of the residual itself, not to round-off
     for level in ("residual_pos", "residual_vel"):
         assert np.max(getattr(got, level)) <= max(1e-12, 10 * np.max(getattr(expected, level)))
-    assert array_error(expected.residual_acc, got.residual_acc) < 1e-6
+    assert array_error(expected.residual_acc, got.residual_acc) < 1e-3
 
 
 def test_parameters_change_without_recompiling(example_builds):

@@ -19,6 +19,14 @@ from fmu_helpers import model_path
 INTERVAL = 0.01
 
 
+# The FMU lands on every communication point, so it steps differently from one run to
+# t_end: the two agree to the method's global error, not to round-off. At tol 1e-8 each is
+# within about 30 tol of an independent joint-coordinate solution of INTELSAT V over the
+# deployment (docs/method.md), and they are measured 7-14 tol apart (the friction's stick
+# and slip amplify round-off-level differences of lambda); the bound allows 30.
+AGREE = 30
+
+
 @pytest.fixture(scope="module")
 def intelsat():
     model = depsim.load(model_path("intelsat5"))
@@ -26,8 +34,8 @@ def intelsat():
 
 
 def _agree(fmu_result, result, module, tol):
-    """Outputs and hinge angles at every output time within 10 tol of their scale; latches
-    at the same times (to the output interval)."""
+    """Outputs and hinge angles at every output time within AGREE tol of their scale;
+    latches at the same times (to the output interval)."""
     assert len(fmu_result) == len(result.times)
     assert np.allclose(fmu_result["time"], result.times, rtol=0, atol=1e-9)
     signals = [(name, np.asarray(result.outputs)[:, j]) for j, name in enumerate(module.OUTPUTS)]
@@ -37,7 +45,7 @@ def _agree(fmu_result, result, module, tol):
     for name, reference in signals:
         scale = max(1.0, float(np.max(np.abs(reference))))
         error = float(np.max(np.abs(fmu_result[name] - reference))) / scale
-        assert error <= 10 * tol, f"{name}: {error:.3g} of its scale"
+        assert error <= AGREE * tol, f"{name}: {error:.3g} of its scale"
         worst = max(worst, error)
     latches = {r.hinge: r.t for r in result.deployment.latches}
     for hinge in result.deployment.latch_hinges:
