@@ -14,6 +14,7 @@ diagnostic found.
 
 from __future__ import annotations
 
+import dataclasses
 import difflib
 from collections.abc import Iterable
 
@@ -67,6 +68,15 @@ CODES: dict[str, str] = {
     "E045": "initial value for something that is not a joint",
     "E046": "initial value of a slider that closes a kinematic loop",
     "E047": "input on something it cannot act on, or a default that is not a number",
+    # repetition (for loops, indexed names, array and structural parameters)
+    "E050": "bad loop range",
+    "E051": "bad index",
+    "E052": "no element with this index",
+    "E053": "wrong number of values for an array parameter",
+    "E054": "repetition too large",
+    "E055": "bad structural parameter",
+    "E056": "loop variable reuses a name",
+    "E057": "statement that cannot be repeated",
     # warnings
     "W001": "member has no joint path to the ground",
     "W002": "parameter never used",
@@ -78,11 +88,32 @@ CODES: dict[str, str] = {
 MAX_DIAGNOSTICS = 50  # after this many errors, stop collecting: the rest are usually noise
 
 
+@dataclasses.dataclass(frozen=True, slots=True)
+class LoopSpan(Span):
+    """A span of text inside a `for` loop, in one iteration: `iteration` holds the loop
+    variables' values, outermost first ((("i", 3),) for i = 3). Two iterations of the same
+    text are different places (a name declared in a loop is declared once per iteration)."""
+
+    iteration: tuple[tuple[str, int], ...] = ()
+
+    def plain(self) -> Span:
+        return Span(self.file, self.line, self.col, self.end_line, self.end_col)
+
+    def describe(self) -> str:
+        """"in iteration i = 3, j = 2"."""
+        return "in iteration " + ", ".join(f"{name} = {value}"
+                                           for name, value in self.iteration)
+
+
 class Reporter:
-    """Collects diagnostics while a stage runs; never raises for user input."""
+    """Collects diagnostics while a stage runs; never raises for user input.
+
+    A diagnostic at text inside a `for` loop (a LoopSpan) gets a note naming the iteration;
+    the same diagnostic at the same text in later iterations is counted, not repeated."""
 
     def __init__(self) -> None:
         self.diagnostics: list[Diagnostic] = []
+        self._repeats: dict[tuple, tuple[int, int]] = {}  # key -> (list index, more)
 
     def error(self, code: str, message: str, span: Span, hint: str = "",
               notes: Iterable[str] = ()) -> None:
@@ -95,8 +126,26 @@ class Reporter:
         self._add(Diagnostic(code, message, span, hint, tuple(notes)))
 
     def _add(self, diagnostic: Diagnostic) -> None:
+        span = diagnostic.span
+        if isinstance(span, LoopSpan):
+            key = (diagnostic.code, span.plain(), _shape(diagnostic.message))
+            if key in self._repeats:
+                self._repeated(key)
+                return
+            diagnostic = dataclasses.replace(diagnostic, span=span.plain(),
+                                             notes=(span.describe(), *diagnostic.notes))
+            if len(self.diagnostics) < MAX_DIAGNOSTICS:
+                self._repeats[key] = (len(self.diagnostics), 0)
         if len(self.diagnostics) < MAX_DIAGNOSTICS and diagnostic not in self.diagnostics:
             self.diagnostics.append(diagnostic)
+
+    def _repeated(self, key: tuple) -> None:
+        index, more = self._repeats[key]
+        more += 1
+        self._repeats[key] = (index, more)
+        first = self.diagnostics[index]
+        note = f"{first.notes[0].split(' (')[0]} (and {more} more iteration{'s' * (more > 1)})"
+        self.diagnostics[index] = dataclasses.replace(first, notes=(note, *first.notes[1:]))
 
     @property
     def has_errors(self) -> bool:
@@ -211,5 +260,19 @@ def file_span(filename: str) -> Span:
 
 
 def at(span: Span) -> str:
-    """`LINE:COL` for notes such as 'first defined at 12:5'."""
-    return f"{span.line}:{span.col}"
+    """`LINE:COL` for notes such as 'first defined at 12:5' ('12:5, in iteration i = 1'
+    inside a loop)."""
+    where = f"{span.line}:{span.col}"
+    return f"{where}, {span.describe()}" if isinstance(span, LoopSpan) else where
+
+
+def _shape(message: str) -> str:
+    """A message with its indices left out: 'panel[3].mass must be positive' and
+    'panel[4].mass must be positive' are the same error in two iterations."""
+    out, depth = [], 0
+    for char in message:
+        depth += char == "["
+        if not depth:
+            out.append(char)
+        depth -= char == "]" and depth > 0
+    return "".join(out)

@@ -11,6 +11,7 @@ from __future__ import annotations
 from .attributes import AttributeReader
 from .errors import did_you_mean
 from .evaluate import binary, negate
+from .expressions import plain_number
 from .ir import Expr, Num
 from .linear import LinearForm, NotLinear, Term, linearize
 from .names import MEMBER_KINDS, Symbol, SymbolTable, element_name
@@ -73,10 +74,18 @@ def _only_joined(form: LinearForm, a: Symbol, b: Symbol, statement: JointStmt,
 
 
 def _net_sign(terms: list[Term]) -> int | None:
-    """The coefficient of a name written only with + and -, or None if it has factors."""
-    if any(t.factors for t in terms):
-        return None
-    return sum(t.sign for t in terms)
+    """The coefficient of a name written with + and - and plain whole numbers as factors
+    (`-1 * (B - A)`, what `(-1)^i * (B - A)` is in a for loop), or None otherwise."""
+    total = 0.0
+    for term in terms:
+        coefficient = float(term.sign)
+        for op, factor in term.factors:
+            number = plain_number(factor)
+            if number is None or not number[0].lstrip("-").isdigit() or number[1] == 0:
+                return None
+            coefficient = coefficient * number[1] if op == "*" else coefficient / number[1]
+        total += coefficient
+    return int(total) if total.is_integer() else None
 
 
 def _sign(form: LinearForm, a: Symbol, b: Symbol) -> int | None:

@@ -397,6 +397,17 @@ class Diagnostic:
 
 
 @dataclass(frozen=True, slots=True)
+class StructuralParam:
+    """A parameter fixed when the model is checked: a whole number used for a loop bound or
+    an index (docs/language.md, Repetition). It is not in the run-time parameter vector;
+    changing it means changing the model text."""
+
+    name: str
+    value: int
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
 class Model:
     """A checked model. `params` is the run-time parameter vector's layout."""
 
@@ -420,3 +431,4 @@ class Model:
     warnings: tuple[Diagnostic, ...]
     limits: tuple[Limit, ...] = ()  # every range check of an attribute, in file order
     inputs: tuple[Input, ...] = ()
+    structural: tuple[StructuralParam, ...] = ()  # loop bounds and indices, fixed

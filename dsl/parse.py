@@ -30,7 +30,7 @@ MAX_NON_ASCII_ERRORS = 10
 
 # The expression nodes of lark's tree (grammar.lark's aliases): each is one level of depth.
 _EXPRESSION_NODES = frozenset({"add", "sub", "mul", "div", "neg", "pos", "pow", "with_unit",
-                               "call", "ref", "number"})
+                               "call", "ref", "number", "pick"})
 # Characters people paste for ASCII ones that NFKC normalisation does not map.
 _LOOKALIKES = {"\u2212": "-", "\u2013": "-", "\u2014": "-", "\u00d7": "*", "\u00b7": "*",
                "\u22c5": "*", "\u2217": "*", "\u201c": '"', "\u201d": '"', "\u00a0": " "}

@@ -17,10 +17,12 @@ from .evaluate import EvaluationError, Typed, evaluate, param_indices
 from .expressions import Context, ExprResolver, ParamInfo
 from .initial import InitialValues
 from .ir import (Beam, Body, Cable, Expr, Ground, Hinge, JointKind, Model, Num, Output, Param,
-                 ParamKind, Simulation, Slider)
+                 ParamKind, Simulation, Slider, StructuralParam)
 from .joints import resolve_cable, resolve_hinge, resolve_slider
 from .members import check_element_total, resolve_gravity, resolve_ground, resolve_member
 from .names import collect_symbols
+from .repeat import expand
+from .structural import Structural
 from .inputs import resolve_input
 from .syntax import (CableStmt, GravityStmt, GroundStmt, InitialStmt, InputStmt, JointStmt,
                      MemberStmt, ModelStmt, OutputStmt, ParamStmt, SimulateStmt, SourceFile)
@@ -31,13 +33,21 @@ _SINGLE = (ModelStmt, GravityStmt, GroundStmt, SimulateStmt)  # at most one of e
 
 
 def resolve(source: SourceFile, text: str, report: Reporter) -> Model | None:
-    """The checked model, or None when `report` holds errors."""
-    return _ModelBuilder(source, text, report).build()
+    """The checked model, or None when `report` holds errors. Repetition (for loops,
+    indexed names, array and structural parameters) is expanded first (dsl/repeat.py)."""
+    expanded = expand(source, report)
+    if expanded is None:
+        return None
+    source, structural = expanded
+    return _ModelBuilder(source, text, report, structural).build()
 
 
 class _ModelBuilder:
-    def __init__(self, source: SourceFile, text: str, report: Reporter) -> None:
+    def __init__(self, source: SourceFile, text: str, report: Reporter,
+                 structural: dict[str, Structural]) -> None:
         self.source = source
+        self.structural = tuple(StructuralParam(s.name, s.value, s.span)
+                                for s in structural.values())
         self.text = text
         self.report = report
         self.symbols = collect_symbols(source, report)
@@ -241,7 +251,8 @@ class _ModelBuilder:
             hinges=hinges, sliders=sliders, cables=tuple(self.cables),
             outputs=tuple(self.outputs), simulation=self.simulation, placements=placements,
             loop_joints=loops, warnings=tuple(sorted(self.report.warnings(), key=sort_key)),
-            limits=tuple(self.reader.limits), inputs=tuple(self.inputs))
+            limits=tuple(self.reader.limits), inputs=tuple(self.inputs),
+            structural=self.structural)
 
     def _initial(self, joint: str, suffix: str) -> Expr:
         value = self.initial.get(joint, suffix)

@@ -168,6 +168,10 @@ def _params(model: Model, values: list[float]) -> list[str]:
     if model.derived:
         lines += _wrap_items("  derived:", [f"{d.name} (from {', '.join(d.depends_on)})"
                                             for d in model.derived])
+    if model.structural:
+        lines += _wrap_items("  structural (loop bounds and indices, fixed when checked; "
+                             "not in the vector):",
+                             [f"{s.name} = {s.value}" for s in model.structural])
     return lines
 
 

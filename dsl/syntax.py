@@ -17,16 +17,22 @@ from .ir import Span
 # The words that start statements, and all keywords of the grammar.
 STATEMENT_WORDS = ("model", "param", "gravity", "ground", "bar", "body", "beam", "hinge",
                    "slider", "cable", "initial", "simulate", "output", "input")
-KEYWORDS = frozenset(STATEMENT_WORDS + ("joins", "to", "point"))
+KEYWORDS = frozenset(STATEMENT_WORDS + ("joins", "to", "point", "for"))
 KIND_WORDS = ("bar", "body", "beam", "hinge", "slider")  # keywords the syntax tree keeps
 # Words of the input statement only (`input T torque on h1`): keywords there, names elsewhere.
 INPUT_WORDS = ("torque", "force", "on")
+# The word of the for statement only (`for i in 1..N`): a keyword there, a name elsewhere.
+FOR_WORDS = ("in",)
 
 
 @dataclass(frozen=True, slots=True)
 class Ident:
+    """A name as written; `indices` are its index expressions (`panel[i-1]`), () once
+    repetition has expanded it into the plain name `panel[3]` (dsl/repeat.py)."""
+
     text: str
     span: Span
+    indices: tuple[AstExpr, ...] = ()
 
 
 # --- expressions ------------------------------------------------------------------------------
@@ -83,7 +89,17 @@ class Quantity:
     span: Span
 
 
-AstExpr = NumberLit | NameRef | UnaryOp | BinaryOp | CallExpr | Quantity
+@dataclass(frozen=True, slots=True)
+class ListPick:
+    """`(1.965, 1.965, 1.936)[j]`: the value at a fixed index (from 1), picked when the
+    model is checked."""
+
+    values: tuple[AstExpr, ...]
+    index: AstExpr
+    span: Span
+
+
+AstExpr = NumberLit | NameRef | UnaryOp | BinaryOp | CallExpr | Quantity | ListPick
 
 
 @dataclass(frozen=True, slots=True)
@@ -97,6 +113,28 @@ class VectorLit:
     span: Span
 
 
+@dataclass(frozen=True, slots=True)
+class TupleLit:
+    """`(a, b, c) UNIT`: three or more values, the value of an array parameter."""
+
+    items: tuple[AstExpr, ...]
+    unit: str | None
+    unit_span: Span | None
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class ForLoop:
+    """`for i in start..stop { ... }` around statements, or around the items of a block:
+    `body` repeated for i = start, start + 1, ..., stop (none when stop < start)."""
+
+    var: Ident
+    start: AstExpr
+    stop: AstExpr
+    body: tuple
+    span: Span
+
+
 # --- block items and statements ---------------------------------------------------------------
 
 
@@ -106,7 +144,7 @@ class AttributeItem:
 
     name: Ident
     sub: Ident | None
-    value: AstExpr | VectorLit
+    value: AstExpr | VectorLit | TupleLit
     span: Span
 
 
@@ -119,7 +157,7 @@ class PointItem:
 
 @dataclass(frozen=True, slots=True)
 class Block:
-    items: tuple[AttributeItem | PointItem, ...]
+    items: tuple[AttributeItem | PointItem | ForLoop, ...]
     span: Span
 
 
@@ -133,7 +171,7 @@ class ModelStmt:
 @dataclass(frozen=True, slots=True)
 class ParamStmt:
     name: Ident
-    value: AstExpr
+    value: AstExpr | VectorLit | TupleLit  # a vector or tuple: an array parameter
     span: Span
 
 
@@ -211,7 +249,7 @@ class InputStmt:
 
 
 Statement = ModelStmt | ParamStmt | GravityStmt | GroundStmt | MemberStmt | JointStmt \
-    | CableStmt | InitialStmt | SimulateStmt | OutputStmt | InputStmt
+    | CableStmt | InitialStmt | SimulateStmt | OutputStmt | InputStmt | ForLoop
 
 
 @dataclass(frozen=True, slots=True)
@@ -240,7 +278,9 @@ class ToSyntax(Transformer):
             return Discard
         return token
 
-    def _ident(self, token: Token) -> Ident:
+    def _ident(self, token: Token | Ident) -> Ident:
+        if isinstance(token, Ident):
+            return token
         return Ident(str(token), Span(self.filename, token.line, token.column,
                                       token.end_line, token.end_column))
 
@@ -284,10 +324,22 @@ class ToSyntax(Transformer):
 
     def input_stmt(self, meta, children) -> InputStmt:
         name, kind, on, target, *rest = children
-        point = self._ident(rest.pop(0)) if rest and isinstance(rest[0], Token) else None
+        point = rest.pop(0) if rest and isinstance(rest[0], Ident) else None
         default = rest[0] if rest else None
         return InputStmt(self._ident(name), str(kind), self._ident(target), point, default,
                          self._span(meta))
+
+    def for_stmt(self, meta, children) -> ForLoop:
+        var, _in, start, stop, *body = children
+        return ForLoop(self._ident(var), start, stop, tuple(body), self._span(meta))
+
+    for_item = for_stmt
+
+    def ixname(self, meta, children) -> Ident:
+        name, *indices = children
+        if not indices:
+            return self._ident(name)
+        return Ident(str(name), self._span(meta), tuple(indices))
 
     def attachment(self, meta, children) -> AttachmentRef:
         member, point = children
@@ -305,12 +357,21 @@ class ToSyntax(Transformer):
     def point(self, meta, children) -> PointItem:
         return PointItem(self._ident(children[0]), children[1], self._span(meta))
 
-    def vector(self, meta, children) -> VectorLit:
-        x, y = children[:2]
-        unit = children[2] if len(children) > 2 else None
+    def values(self, meta, children) -> tuple:
+        return tuple(children)
+
+    def vector(self, meta, children) -> VectorLit | TupleLit:
+        values = children[0]
+        unit = children[1] if len(children) > 1 else None
         unit_span = self._ident(unit).span if unit is not None else None
-        return VectorLit(x, y, str(unit) if unit is not None else None, unit_span,
-                         self._span(meta))
+        unit_text = str(unit) if unit is not None else None
+        if len(values) == 2:
+            return VectorLit(values[0], values[1], unit_text, unit_span, self._span(meta))
+        return TupleLit(values, unit_text, unit_span, self._span(meta))
+
+    def pick(self, meta, children) -> ListPick:
+        values, index = children
+        return ListPick(values, index, self._span(meta))
 
     # expressions
     def number(self, meta, children) -> NumberLit:

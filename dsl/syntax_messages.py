@@ -54,6 +54,8 @@ def describe_syntax_error(error: UnexpectedInput, text: str, filename: str
     assert isinstance(error, UnexpectedToken)
     token = error.token
     expected = set(error.accepts or error.expected)
+    if expected - {"LSQB"}:  # an index may follow most names: not worth saying
+        expected.discard("LSQB")
     span = _token_span(token, filename)
     replay = keyword_replay(error)
     if token.type == "$END" or replay:
@@ -226,7 +228,7 @@ def _terminal_word(name: str) -> str:
 
     fixed = {"_NL": "end of line", "$END": "end of file", "UNIT": "a unit", "NAME": "a name",
              "NUMBER": "a number", "STRING": "a quoted description",
-             "LOAD_KIND": "'torque' or 'force'", "ON": "'on'"}
+             "LOAD_KIND": "'torque' or 'force'", "ON": "'on'", "IN": "'in'"}
     if name in fixed:
         return fixed[name]
     if name in KEYWORD_TERMINALS:
