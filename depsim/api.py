@@ -21,6 +21,7 @@ import numpy as np
 
 from depsim import __version__
 from depsim.dsl import check_parameters, ir, load_model, parse_quantity, with_elements
+from depsim.dsl.structural import fixed_message
 from depsim.errors import UsageError
 
 
@@ -178,7 +179,10 @@ class Simulator:
         p = self.defaults.copy()
         by_name = {m.name: i for i, m in enumerate(self.model.ir.params)}
         derived = {d.name: d for d in self.model.ir.derived}
+        structural = {s.name: s.value for s in self.model.ir.structural}
         for name, value in (set or {}).items():
+            if name in structural:  # a loop bound or index: fixed in the model text
+                raise UsageError(fixed_message(name, structural[name]))
             if name not in by_name:
                 raise UsageError(_unknown_parameter(name, by_name, derived))
             p[by_name[name]] = _parameter_value(self.model.ir.params[by_name[name]], value)

@@ -109,7 +109,8 @@ _KINDS: dict[str, tuple[tuple[str, ...], Callable[[tuple[float, ...]], str | Non
         else None)),
 }
 
-_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*\Z")
+# `h2.friction`, and names made by repetition: `panel[3].mass`, `cell[1][2].x` (docs/language.md)
+_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(\[[0-9]+\])*(\.[A-Za-z_][A-Za-z0-9_]*(\[[0-9]+\])*)*\Z")
 _NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?\Z")
 _CALL = re.compile(r"([A-Za-z_]+)\s*\((.*)\)\Z", re.S)
 
