@@ -21,6 +21,10 @@ def assemble(hinges: tuple[Hinge, ...], sliders: tuple[Slider, ...],
     body and beam in declaration order, for the floating-member warning."""
     joints = [(JointKind.HINGE, i, h.a.member, h.b.member) for i, h in enumerate(hinges)]
     joints += [(JointKind.SLIDER, i, s.a.member, s.b.member) for i, s in enumerate(sliders)]
+    touching: dict[Member, list] = {}  # member -> its joints, in the order of `joints`
+    for joint in joints:
+        for end in dict.fromkeys(joint[2:]):
+            touching.setdefault(end, []).append(joint)
     placed: set[Member] = set()
     used: set[tuple[JointKind, int]] = set()
     placements: list[Placement] = []
@@ -30,21 +34,22 @@ def assemble(hinges: tuple[Hinge, ...], sliders: tuple[Slider, ...],
         if root in placed:
             continue
         placed.add(root)
-        group = _grow(root, joints, placed, used, placements, loops)
+        group = _grow(root, touching, placed, used, placements, loops)
         if root.kind is not MemberKind.GROUND:
             _warn_floating(root, group, members, report)
     return tuple(placements), tuple(loops)
 
 
-def _grow(root: Member, joints, placed: set[Member], used: set, placements: list,
+def _grow(root: Member, touching: dict, placed: set[Member], used: set, placements: list,
           loops: list) -> list[Member]:
-    """Place everything reachable from `root`; the members placed, in order."""
+    """Place everything reachable from `root`; the members placed, in order. `touching`
+    gives each member's joints in declaration order, hinges before sliders."""
     group = []
     queue = deque([root])
     while queue:
         parent = queue.popleft()
-        for kind, index, a, b in joints:
-            if (kind, index) in used or parent not in (a, b):
+        for kind, index, a, b in touching.get(parent, ()):
+            if (kind, index) in used:
                 continue
             used.add((kind, index))
             child = b if parent == a else a

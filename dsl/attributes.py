@@ -114,12 +114,14 @@ class ParamVector:
         self.declared: list[Param] = []
         self.attributes: list[Param] = []
         self.derived: list[DerivedName] = []
+        self._defaults: list[float] = []  # in entries() order, kept as entries are added
 
     def entries(self) -> list[Param]:
         return self.declared + self.attributes
 
     def defaults(self) -> list[float]:
-        return [p.default for p in self.entries()]
+        """The entries' default values (the list kept here: read it, do not change it)."""
+        return self._defaults
 
     def add(self, param: Param) -> ParamRef:
         if param.kind is ParamKind.DECLARED:
@@ -127,11 +129,13 @@ class ParamVector:
             self.declared.append(param)
         else:
             self.attributes.append(param)
+        self._defaults.append(param.default)
         return ParamRef(len(self.declared) + len(self.attributes) - 1)
 
     def add_derived(self, name: str, expr: Expr, span: Span) -> None:
-        entries = self.entries()
-        depends = tuple(entries[i].name for i in sorted(param_indices(expr)))
+        first = len(self.declared)
+        depends = tuple((self.declared[i] if i < first else self.attributes[i - first]).name
+                        for i in sorted(param_indices(expr)))
         self.derived.append(DerivedName(name, depends, span))
 
 

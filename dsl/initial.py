@@ -51,8 +51,8 @@ class InitialValues:
         report = reader.report
         name = item.name.text
         symbol = symbols.get(name)
-        joints = symbols.names_of_kind("hinge", "slider")
         if symbol is None:
+            joints = symbols.names_of_kind("hinge", "slider")
             report.error("E010", f"unknown name '{name}'", item.name.span,
                          hint=did_you_mean(name, joints) or f"joints: {join_names(joints)}")
             return

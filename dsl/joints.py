@@ -23,8 +23,8 @@ def attachment(ref: AttachmentRef, symbols: SymbolTable, reader: AttributeReader
     """MEMBER.POINT: the member's symbol and the IR attachment."""
     report = reader.report
     symbol = symbols.get(ref.member.text)
-    members = symbols.names_of_kind(*MEMBER_KINDS)
     if symbol is None or symbol.kind not in MEMBER_KINDS:
+        members = symbols.names_of_kind(*MEMBER_KINDS)
         what = f"'{ref.member.text}' is {symbol.describe()}, not a member" if symbol \
             else f"unknown member '{ref.member.text}'"
         report.error("E012", what, ref.member.span,
@@ -165,7 +165,6 @@ def _cable_terms(item, symbols: SymbolTable, reader: AttributeReader,
 
 def _all_hinges(form: LinearForm, symbols: SymbolTable, reader: AttributeReader) -> bool:
     ok = True
-    hinges = symbols.names_of_kind("hinge")
     for name, terms in form.terms.items():
         symbol = symbols.get(name)
         if symbol is not None and symbol.kind == "hinge":
@@ -173,6 +172,7 @@ def _all_hinges(form: LinearForm, symbols: SymbolTable, reader: AttributeReader)
         ok = False
         span = terms[0].node.span
         if symbol is None:
+            hinges = symbols.names_of_kind("hinge")
             reader.report.error("E010", f"unknown name '{name}'", span,
                                 hint=did_you_mean(name, hinges) or
                                 f"cable angles combine hinges: {join_names(hinges)}")

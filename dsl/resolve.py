@@ -65,6 +65,7 @@ class _ModelBuilder:
         self.initial = InitialValues()
         self.simulation = DEFAULT_SIMULATION
         self.seen: dict[type, object] = {}
+        self.hinge_index: dict[str, int] | None = None
 
     def build(self) -> Model | None:
         self._check_model_statement()
@@ -159,8 +160,10 @@ class _ModelBuilder:
 
     def _read_CableStmt(self, statement: CableStmt) -> None:
         if self._declares(statement):
-            hinge_index = {s.name: s.index for s in self.symbols.of_kind("hinge")}
-            self.cables.append(resolve_cable(statement, self.symbols, self.reader, hinge_index))
+            if self.hinge_index is None:  # every name is declared before any is read
+                self.hinge_index = {s.name: s.index for s in self.symbols.of_kind("hinge")}
+            self.cables.append(resolve_cable(statement, self.symbols, self.reader,
+                                             self.hinge_index))
 
     def _read_InitialStmt(self, statement: InitialStmt) -> None:
         self.initial.read(statement, self.symbols, self.reader)
