@@ -34,6 +34,7 @@ class Assembly:
     tree_joints: tuple[str, ...]
     v: tuple[sympy.Symbol, ...]
     pose: tuple[sympy.Expr, ...]
+    tree_jacobian: tuple[tuple[sympy.Expr, ...], ...]  # (NQ, NV): d pose / d v
     v0: tuple[sympy.Expr, ...]
     vd0: tuple[sympy.Expr, ...]
     held: tuple[int, ...]
@@ -41,16 +42,34 @@ class Assembly:
 
 @dataclass
 class _Placing:
-    """The assembly so far: placed coordinates, beam angles, joint values -> (value, rate)."""
+    """The assembly so far: placed coordinates, beam angles, joint values -> (value, rate),
+    and each placed coordinate's derivatives by the joint values (forward mode: a child's
+    from its parent's by the chain rule, so a chain of n members costs O(n^2) products
+    instead of O(n^2) derivatives of ever longer expressions)."""
 
     pose: Pose
     beam_angles: dict[int, sympy.Expr]
     values: dict[sympy.Symbol, tuple[sympy.Expr, sympy.Expr]]
+    jacobian: dict[sympy.Symbol, dict[sympy.Symbol, sympy.Expr]]
+
+    def place(self, symbol: sympy.Symbol, local: sympy.Expr) -> None:
+        """Put coordinate `symbol` at `local`, an expression of placed coordinates and joint
+        values: its pose and its derivatives by every joint value."""
+        derivatives: dict[sympy.Symbol, sympy.Expr] = {}
+        for s in local.free_symbols:
+            if s not in self.values and s not in self.jacobian:
+                continue  # a parameter
+            partial = local.diff(s).xreplace(self.pose)
+            inner = {s: sympy.Integer(1)} if s in self.values else self.jacobian[s]
+            for v, d in inner.items():
+                derivatives[v] = derivatives.get(v, sympy.Integer(0)) + partial * d
+        self.pose[symbol] = local.xreplace(self.pose)
+        self.jacobian[symbol] = {v: d for v, d in derivatives.items() if d != 0}
 
 
 def assemble(model: ir.Model, kin: Kinematics) -> Assembly:
     """Pose, velocities and beam angles of the assembled initial state."""
-    state = _Placing({}, {}, {})
+    state = _Placing({}, {}, {}, {})
     for placement in model.placements:
         _place_at_origin(kin, placement.parent, state)
         if placement.kind is ir.JointKind.HINGE:
@@ -62,14 +81,18 @@ def assemble(model: ir.Model, kin: Kinematics) -> Assembly:
     for index in range(len(model.beams)):
         _place_at_origin(kin, ir.Member(ir.MemberKind.BEAM, index), state)
     q0 = [state.pose[s] for s in kin.symbols.q]
-    qd0 = [sympy.Add(*(x.diff(v) * rate for v, (_, rate) in state.values.items())) for x in q0]
+    values = tuple(state.values)
+    tree_jacobian = tuple(tuple(state.jacobian[s].get(v, sympy.Integer(0)) for v in values)
+                          for s in kin.symbols.q)
+    qd0 = [sympy.Add(*(d * state.values[v][1] for v, d in zip(values, row)))
+           for row in tree_jacobian]
     initial = {v: value for v, (value, _) in state.values.items()}
     angles = [state.beam_angles[i] for i in range(len(model.beams))]
     joints = [model.hinges[p.joint] if p.kind is ir.JointKind.HINGE else model.sliders[p.joint]
               for p in model.placements]
     return Assembly(*(tuple(x.xreplace(initial) for x in column) for column in (q0, qd0, angles)),
-                    tree_joints=tuple(j.name for j in joints), v=tuple(state.values),
-                    pose=tuple(q0), v0=tuple(value for value, _ in state.values.values()),
+                    tree_joints=tuple(j.name for j in joints), v=values,
+                    pose=tuple(q0), tree_jacobian=tree_jacobian, v0=tuple(value for value, _ in state.values.values()),
                     vd0=tuple(rate for _, rate in state.values.values()),
                     held=tuple(j.held for j in joints))
 
@@ -90,11 +113,12 @@ def _sides(joint: ir.Hinge | ir.Slider, placement: ir.Placement):
 
 
 def _placed(kin: Kinematics, attachment: ir.Attachment, state: _Placing):
-    """(world position, angle) of an attachment of an already placed member."""
-    position = tuple(c.xreplace(state.pose) for c in kin.attachment_position(attachment))
+    """(world position, angle) of an attachment of an already placed member, in its placed
+    coordinates (a beam's angle in the joint values)."""
+    position = tuple(kin.attachment_position(attachment))
     if attachment.member.kind is ir.MemberKind.BEAM:
         return position, state.beam_angles[attachment.member.index]
-    return position, kin.attachment_angle(attachment).xreplace(state.pose)
+    return position, kin.attachment_angle(attachment)
 
 
 def _place_hinge(kin: Kinematics, hinge: ir.Hinge, placement: ir.Placement,
@@ -126,7 +150,8 @@ def _place_member(kin: Kinematics, attachment: ir.Attachment, point: Vector,
     symbols = kin.member_symbols(member)
     if member.kind is ir.MemberKind.BODY:
         offset = rotate(angle, kin.local_point(member, attachment.point))
-        state.pose.update(zip(symbols, (point[0] - offset[0], point[1] - offset[1], angle)))
+        for symbol, local in zip(symbols, (point[0] - offset[0], point[1] - offset[1], angle)):
+            state.place(symbol, local)
         return
     # an undeformed straight beam: its angle is the same at both ends
     start = point
@@ -134,8 +159,9 @@ def _place_member(kin: Kinematics, attachment: ir.Attachment, point: Vector,
         length = kin.const(kin.model.beams[member.index].length)
         start = (point[0] - length * sympy.cos(angle), point[1] - length * sympy.sin(angle))
     element = kin.beams[member.index]
-    state.pose.update(zip(symbols, element.initial_coordinates(start[0], start[1], angle)))
-    state.beam_angles[member.index] = angle
+    for symbol, local in zip(symbols, element.initial_coordinates(start[0], start[1], angle)):
+        state.place(symbol, local)
+    state.beam_angles[member.index] = angle.xreplace(state.pose)
 
 
 def _place_at_origin(kin: Kinematics, member: ir.Member, state: _Placing) -> None:
@@ -145,6 +171,7 @@ def _place_at_origin(kin: Kinematics, member: ir.Member, state: _Placing) -> Non
     zero = sympy.Integer(0)
     point = ir.Attachment(member, "a", None) if member.kind is ir.MemberKind.BEAM else None
     if point is None:
-        state.pose.update(zip(kin.member_symbols(member), (zero, zero, zero)))
+        for symbol in kin.member_symbols(member):
+            state.place(symbol, zero)
     else:
         _place_member(kin, point, (zero, zero), zero, state)

@@ -127,7 +127,8 @@ def derive(model: ir.Model) -> SymbolicSystem:
         q0=column(q0), qd0=column(qd0), tree_joints=assembly.tree_joints,
         tree_held=assembly.held, v=assembly.v, tree_v0=column(assembly.v0),
         tree_vd0=column(assembly.vd0), tree_pose=column(assembly.pose),
-        tree_jacobian=jacobian(column(assembly.pose), assembly.v),
+        tree_jacobian=ImmutableMatrix(assembly.tree_jacobian) if assembly.v
+        else ImmutableMatrix.zeros(len(q), 0),
         loop_angles=_loop_targets(model, kin, 1), loop_rates=_loop_targets(model, kin, 2),
     )
 
