@@ -337,7 +337,7 @@ def _check_references(statements: list, structural: dict[str, Structural],
     declared = {s.name.text: s.name.span for s in statements if isinstance(s, _DECLARING)}
     families: dict[str, set[int]] = defaultdict(set)
     for name in declared:
-        if "[" in name:
+        if "[" in name and "[?]" not in name:
             base, rest = name.split("[", 1)
             families[base].add(int(rest.split("]", 1)[0]))
     for name, span in declared.items():
