@@ -98,7 +98,7 @@ def test_structural_parameter_is_fixed_and_not_in_the_vector():
 
 
 def test_a_parameter_used_only_in_values_stays_a_run_time_parameter():
-    model = check(f"model m\nparam N = 4\nbar b {{ length = 1 m; mass = 8 kg / N; "
+    model = check("model m\nparam N = 4\nbar b { length = 1 m; mass = 8 kg / N; "
                   "inertia = 1 kg*m^2 }\n")
     assert model.structural == ()
     assert model.params[0].name == "N" and model.params[0].kind is ParamKind.DECLARED
@@ -199,7 +199,7 @@ output v = b[2].b.vx
 
 
 def test_error_in_a_loop_points_into_the_body_and_names_the_iteration():
-    text = f"model m\nfor i in 1..4 {{\n    bar b[i] {{ length = 1 m; mass = (3 - i) kg; " \
+    text = "model m\nfor i in 1..4 {\n    bar b[i] { length = 1 m; mass = (3 - i) kg; " \
         "inertia = 1 kg*m^2 }\n}\n"
     raised = errors(text)
     first = raised.errors[0]
