@@ -51,6 +51,7 @@ class SymbolicSystem:
     hinge_angles: ImmutableMatrix  # (NH, 1)
     hinge_rates: ImmutableMatrix  # (NH, 1)
     hinge_jacobian: ImmutableMatrix  # (NH, NQ)
+    hinge_jacobian_pattern: tuple[tuple[int, int], ...]  # its structural non-zeros, row-major
     hinge_gamma: ImmutableMatrix  # (NH, 1), -(J qd)_q qd: a lock J qdd = hinge_gamma
     hinge_properties: ImmutableMatrix  # (NH, len(HINGE_PROPERTIES)), nan where not given
     output_names: tuple[str, ...]
@@ -117,7 +118,7 @@ def derive(model: ir.Model) -> SymbolicSystem:
         hinge_names=tuple(h.name for h in model.hinges),
         slider_names=tuple(s.name for s in model.sliders),
         hinge_angles=thetas, hinge_rates=ImmutableMatrix(hinge_jacobian * qd),
-        hinge_jacobian=hinge_jacobian,
+        hinge_jacobian=hinge_jacobian, hinge_jacobian_pattern=_pattern(hinge_jacobian),
         hinge_gamma=acceleration_rhs(thetas, hinge_jacobian, symbols),
         hinge_properties=_hinge_properties(model, kin),
         output_names=tuple(o.name for o in model.outputs),

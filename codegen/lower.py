@@ -200,6 +200,8 @@ def lower_module(model: ir.Model, system: SymbolicSystem, printer: PrinterFactor
         "OUTPUTS": system.output_names, "OUTPUT_UNITS": tuple(o.unit for o in model.outputs),
         "ENERGIES": system.energy_names, "DISSIPATORS": system.dissipator_names,
         "TREE_JOINTS": system.tree_joints, "TREE_HELD": system.tree_held,
+        "HINGE_JACOBIAN_ROWS": tuple(i for i, _ in system.hinge_jacobian_pattern),
+        "HINGE_JACOBIAN_COLS": tuple(j for _, j in system.hinge_jacobian_pattern),
         "INPUTS": tuple(c for put in model.inputs for c in put.components),
         "INPUT_UNITS": tuple(model.params[s].unit for put in model.inputs for s in put.slots),
         "INPUT_SLOTS": tuple(s for put in model.inputs for s in put.slots),

@@ -12,6 +12,7 @@ One compile serves every run: a run only changes the parameter vector.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
 import os
 from pathlib import Path
@@ -120,15 +121,33 @@ CACHE_STAMP = "depsim-generated"  # in a cached folder: its key, then the artifa
 
 def _cache_dir(model: ir.Model, target: str) -> tuple[Path, str]:
     """The cache folder of the model's generated code and its key: the model text's hash,
-    its file name (in the generated header), the element counts, depsim's version and the
-    target. Parameters never enter it: one generated module serves every parameter set."""
+    its file name (in the generated header), the element counts, depsim's version, the code
+    generator itself (its sources and templates: a changed generator never reuses old code)
+    and the target. Parameters never enter it: one generated module serves every parameter
+    set."""
     from depsim.runtime.core import cache_root
 
     elements = ",".join(f"{b.name}={b.elements}" for b in model.beams)
     source = model.source_file.replace("\\", "/").rsplit("/", 1)[-1]
-    key = hashlib.sha256(f"{model.source_sha256}|{source}|{elements}|{__version__}|{target}"
-                         .encode()).hexdigest()
+    key = hashlib.sha256(f"{model.source_sha256}|{source}|{elements}|{__version__}|"
+                         f"{_generator_digest()}|{target}".encode()).hexdigest()
     return cache_root() / "models" / f"{model.name}-{key[:16]}", key
+
+
+@functools.cache
+def _generator_digest() -> str:
+    """SHA-256 of the code generator's files and the model interface (without importing
+    them: sympy stays unloaded)."""
+    import importlib.util
+
+    digest = hashlib.sha256()
+    for package in ("depsim.codegen", "depsim.runtime"):
+        folder = Path(importlib.util.find_spec(package).submodule_search_locations[0])
+        files = sorted(folder.glob("templates/**/*.j2")) + sorted(folder.glob("*.py")) \
+            if package == "depsim.codegen" else [folder / "interface.py"]
+        for path in files:
+            digest.update(path.name.encode() + b"\0" + path.read_bytes())
+    return digest.hexdigest()
 
 
 def _generate(model: ir.Model, target: str, directory: Path):

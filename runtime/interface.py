@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-ABI = 4  # DEP_MODEL_ABI: bumped whenever the dep_model struct changes
+ABI = 5  # DEP_MODEL_ABI: bumped whenever the dep_model struct changes
 
 ARGUMENTS = ("v", "q", "qd", "t", "p")  # every function takes a subsequence, in this order
 
@@ -81,6 +81,7 @@ SIZES = (
     Size("nd", "DISSIPATORS", "dissipators"),
     Size("nv", "TREE_JOINTS", "joints of the assembly tree"),
     Size("ni", "INPUTS", "inputs (external loads a run or a co-simulation drives)"),
+    Size("nhnz", "HINGE_JACOBIAN_ROWS", "structural non-zeros of hinge_jacobian"),
 )
 
 TABLES = (
@@ -105,6 +106,9 @@ TABLES = (
           "the joints placing the members at t = 0, in placement order"),
     Table("tree_held", "TREE_HELD", "const int", "nv",
           "1: its initial value is given, 2: its rate, 3: both (held by the assembly)"),
+    Table("hinge_jacobian_rows", "HINGE_JACOBIAN_ROWS", "const int", "nhnz",
+          "row-major sorted: where d theta / d q can be non-zero (a lock row's pattern)"),
+    Table("hinge_jacobian_cols", "HINGE_JACOBIAN_COLS", "const int", "nhnz", ""),
     Table("input_names", "INPUTS", "const char *const", "ni", ""),
     Table("input_units", "INPUT_UNITS", "const char *const", "ni", "SI unit text"),
     Table("input_slots", "INPUT_SLOTS", "const int", "ni",

@@ -14,6 +14,95 @@
 
 #define CONSISTENCY 1e3 /* a (re)start state may violate its constraints by this many tols */
 
+/* Each hinge's lock-row columns, from the model's HINGE_JACOBIAN_ROWS/COLS. */
+static int lock_patterns(dep_constraints *cs, dep_arena *arena)
+{
+    const dep_model *model = cs->system->model;
+    int nh = model->nh;
+    cs->lock_start = dep_bytes(arena, ((size_t)nh + 1) * sizeof *cs->lock_start);
+    if (cs->lock_start == NULL) {
+        return DEP_MEMORY_ERROR;
+    }
+    for (int h = 0, n = 0; h <= nh; ++h) { /* sorted row-major */
+        cs->lock_start[h] = n;
+        while (h < nh && n < model->nhnz && model->hinge_jacobian_rows[n] == h) {
+            ++n;
+        }
+    }
+    cs->lock_cols = model->hinge_jacobian_cols;
+    return DEP_OK;
+}
+
+/* row_start, row_cols for the active rows. */
+static void refresh_pattern(dep_constraints *cs)
+{
+    const dep_model *model = cs->system->model;
+    int nq = cs->nq, k = 0, *start = cs->row_start, *cols = cs->row_cols;
+    for (int i = 0, n = 0; i < model->nc; ++i) { /* PHI_Q_ROWS is sorted row-major */
+        start[i] = k;
+        while (n < model->nnz && model->phi_q_rows[n] == i) {
+            cols[k++] = model->phi_q_cols[n++];
+        }
+    }
+    for (int i = 0; i < cs->n_added; ++i) {
+        const dep_added_row *r = &cs->added[i];
+        start[model->nc + i] = k;
+        if (r->kind == DEP_ROW_HINGE_LOCK) {
+            for (int m = cs->lock_start[r->hinge]; m < cs->lock_start[r->hinge + 1]; ++m) {
+                cols[k++] = cs->lock_cols[m];
+            }
+            continue;
+        }
+        for (int j = 0; j < nq; ++j) {
+            if (r->row[j] != 0.0) {
+                cols[k++] = j;
+            }
+        }
+    }
+    start[model->nc + cs->n_added] = k;
+}
+
+void dep_cs_times(const dep_constraints *cs, const double *J, const double *x, double *out)
+{
+    size_t nq = (size_t)cs->nq;
+    for (int i = 0; i < cs->nc; ++i) {
+        double sum = 0.0;
+        for (int k = cs->row_start[i]; k < cs->row_start[i + 1]; ++k) {
+            sum += J[(size_t)i * nq + (size_t)cs->row_cols[k]] * x[cs->row_cols[k]];
+        }
+        out[i] = sum;
+    }
+}
+
+void dep_cs_transpose_times(const dep_constraints *cs, const double *J, const double *y,
+                            double *out)
+{
+    size_t nq = (size_t)cs->nq;
+    memset(out, 0, nq * sizeof *out);
+    for (int i = 0; i < cs->nc; ++i) {
+        for (int k = cs->row_start[i]; k < cs->row_start[i + 1]; ++k) {
+            out[cs->row_cols[k]] += J[(size_t)i * nq + (size_t)cs->row_cols[k]] * y[i];
+        }
+    }
+}
+
+double dep_cs_product_scale(const dep_constraints *cs, const double *J, const double *x)
+{
+    size_t nq = (size_t)cs->nq;
+    double largest = 0.0;
+    for (int i = 0; i < cs->nc; ++i) {
+        double sum = 0.0;
+        for (int k = cs->row_start[i]; k < cs->row_start[i + 1]; ++k) {
+            sum += fabs(J[(size_t)i * nq + (size_t)cs->row_cols[k]]) * fabs(x[cs->row_cols[k]]);
+        }
+        if (isnan(sum)) {
+            return sum;
+        }
+        largest = fmax(largest, sum);
+    }
+    return largest;
+}
+
 int dep_constraints_init(dep_constraints *cs, const dep_system *system, dep_arena *arena)
 {
     const dep_model *model = system->model;
@@ -31,13 +120,17 @@ int dep_constraints_init(dep_constraints *cs, const dep_system *system, dep_aren
     for (int i = 0; i < DEP_MAX_ADDED; ++i) {
         cs->added[i].row = dep_doubles(arena, nq);
     }
-    if (arena->failed) {
+    cs->row_start = dep_bytes(arena, ((size_t)cs->capacity + 1) * sizeof *cs->row_start);
+    cs->row_cols = dep_bytes(arena, ((size_t)model->nnz + DEP_MAX_ADDED * nq)
+                                    * sizeof *cs->row_cols);
+    if (arena->failed || lock_patterns(cs, arena) != DEP_OK) {
         return DEP_MEMORY_ERROR;
     }
     for (int i = 0; i < model->nc; ++i) {
         cs->row_names[i] = model->constraint_names[i];
         cs->row_joints[i] = model->constraint_joints[i];
     }
+    refresh_pattern(cs);
     return DEP_OK;
 }
 
@@ -146,8 +239,8 @@ void dep_cs_v_vel(dep_constraints *cs, const double *q, const double *qd, double
     dep_cs_phi_t(cs, q, t, out);
     for (int i = 0; i < cs->nc; ++i) {
         double sum = 0.0;
-        for (int j = 0; j < cs->nq; ++j) {
-            sum += J[i * cs->nq + j] * qd[j];
+        for (int k = cs->row_start[i]; k < cs->row_start[i + 1]; ++k) {
+            sum += J[(size_t)i * (size_t)cs->nq + (size_t)cs->row_cols[k]] * qd[cs->row_cols[k]];
         }
         out[i] = -sum - out[i];
     }
@@ -159,8 +252,8 @@ void dep_cs_v_acc(dep_constraints *cs, const double *q, const double *qd, const 
     dep_cs_gamma(cs, q, qd, t, out);
     for (int i = 0; i < cs->nc; ++i) {
         double sum = 0.0;
-        for (int j = 0; j < cs->nq; ++j) {
-            sum += J[i * cs->nq + j] * qdd[j];
+        for (int k = cs->row_start[i]; k < cs->row_start[i + 1]; ++k) {
+            sum += J[(size_t)i * (size_t)cs->nq + (size_t)cs->row_cols[k]] * qdd[cs->row_cols[k]];
         }
         out[i] -= sum;
     }
@@ -183,6 +276,7 @@ static void refresh_names(dep_constraints *cs)
         cs->row_names[cs->nc_module + i] = cs->added[i].name;
         cs->row_joints[cs->nc_module + i] = cs->added[i].joint;
     }
+    refresh_pattern(cs);
 }
 
 int dep_cs_remove(dep_constraints *cs, const char *name)

@@ -11,7 +11,7 @@
 #ifndef DEPSIM_MODEL_H
 #define DEPSIM_MODEL_H
 
-#define DEP_MODEL_ABI 4 /* bumped whenever this struct changes */
+#define DEP_MODEL_ABI 5 /* bumped whenever this struct changes */
 
 typedef struct dep_model {
     int abi; /* DEP_MODEL_ABI of the header the model was compiled with */
@@ -36,6 +36,7 @@ typedef struct dep_model {
     int nd; /* dissipators */
     int nv; /* joints of the assembly tree */
     int ni; /* inputs (external loads a run or a co-simulation drives) */
+    int nhnz; /* structural non-zeros of hinge_jacobian */
 
     /* tables (NULL when empty) */
     const char *const *coordinate_names; /* nq */
@@ -55,6 +56,8 @@ typedef struct dep_model {
     const char *const *dissipator_names; /* nd */
     const char *const *tree_joints; /* nv, the joints placing the members at t = 0, in placement order */
     const int *tree_held; /* nv, 1: its initial value is given, 2: its rate, 3: both (held by the assembly) */
+    const int *hinge_jacobian_rows; /* nhnz, row-major sorted: where d theta / d q can be non-zero (a lock row's pattern) */
+    const int *hinge_jacobian_cols; /* nhnz */
     const char *const *input_names; /* ni */
     const char *const *input_units; /* ni, SI unit text */
     const int *input_slots; /* ni, u_k(t) = p[slot] + p[slot + 1] t: the parameters holding input k */

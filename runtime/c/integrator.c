@@ -148,24 +148,12 @@ static void tangential_error(dep_run *run, const dep_outcome *outcome)
     memcpy(run->tangent, rk->error, (size_t)run->ny * sizeof *run->tangent);
     for (int half = 0; half < 2 && nc > 0; ++half) {
         double *e = run->tangent + (size_t)half * (size_t)nq;
-        for (int i = 0; i < nc; ++i) {
-            double sum = 0.0;
-            for (int j = 0; j < nq; ++j) {
-                sum += outcome->J1[i * nq + j] * e[j];
-            }
-            Je[i] = sum;
-        }
+        dep_cs_times(&run->cs, outcome->J1, e, Je);
         if (!dep_schur_solve(&run->stepper.mp, outcome->J1, outcome->J1_id, nc, Je, mu)) {
             memcpy(run->tangent, rk->error, (size_t)run->ny * sizeof *run->tangent);
             return; /* a singular S: measure the whole error */
         }
-        for (int j = 0; j < nq; ++j) {
-            double sum = 0.0;
-            for (int i = 0; i < nc; ++i) {
-                sum += outcome->J1[i * nq + j] * mu[i];
-            }
-            column[j] = sum;
-        }
+        dep_cs_transpose_times(&run->cs, outcome->J1, mu, column);
         dep_mass_solve(&run->system.mass, column, solved);
         for (int j = 0; j < nq; ++j) {
             e[j] -= solved[j];

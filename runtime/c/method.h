@@ -25,6 +25,12 @@ typedef struct dep_constraints {
     const char **row_names; /* capacity */
     const char **row_joints;
     double *values, *theta, *hinge_jacobian; /* scratch */
+    /* Where the active rows' Jacobian can be non-zero: row i's columns are
+       row_cols[row_start[i] .. row_start[i + 1]). The model's rows from PHI_Q_ROWS/COLS, a
+       hinge lock from HINGE_JACOBIAN_ROWS/COLS, a linear row from its own non-zeros. */
+    int *row_start, *row_cols;
+    int *lock_start;           /* nh + 1: hinge h's columns are lock_cols[lock_start[h]..) */
+    const int *lock_cols;
 } dep_constraints;
 
 int dep_constraints_init(dep_constraints *cs, const dep_system *system, dep_arena *arena);
@@ -39,6 +45,12 @@ void dep_cs_v_vel(dep_constraints *cs, const double *q, const double *qd, double
 void dep_cs_v_acc(dep_constraints *cs, const double *q, const double *qd, const double *qdd,
                   double t, const double *J, double *out);
 void dep_cs_describe(const dep_constraints *cs, int row, char *joint_text, size_t size);
+/* Products with a Jacobian J of the active rows (dep_cs_jacobian), over its pattern only:
+   out = J x (nc), out = J^T y (nq), and max_i sum_j |J_ij x_j| (the round-off scale of J x). */
+void dep_cs_times(const dep_constraints *cs, const double *J, const double *x, double *out);
+void dep_cs_transpose_times(const dep_constraints *cs, const double *J, const double *y,
+                            double *out);
+double dep_cs_product_scale(const dep_constraints *cs, const double *J, const double *x);
 int dep_cs_remove(dep_constraints *cs, const char *name);
 int dep_cs_add(dep_constraints *cs, const dep_row *row, dep_error *error);
 int dep_cs_add_row(dep_constraints *cs, const dep_added_row *row, dep_error *error);

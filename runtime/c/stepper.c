@@ -158,17 +158,6 @@ void dep_stepper_derivative(dep_stepper *stepper, const dep_state *state, double
     dissipation(stepper->system, state->q, state->qd, state->t, dy + 2 * nq);
 }
 
-static void transpose_times(const double *J, int nc, int nq, const double *x, double *out)
-{
-    for (int j = 0; j < nq; ++j) {
-        double sum = 0.0;
-        for (int i = 0; i < nc; ++i) {
-            sum += J[i * nq + j] * x[i];
-        }
-        out[j] = sum;
-    }
-}
-
 /* ---- pass 3, also for initial and post-event states ------------------------------------- */
 
 /* lambda (in: the guess) and qdd at (q, qd, t) from (1) and (2c); J: Phi_q there. */
@@ -222,7 +211,7 @@ static int correct_base(dep_stepper *stepper, const double *lam1, dep_rk_step *o
     for (int i = 0; i < nc; ++i) {
         stepper->rhs_lam[i] = lam1[i] - stepper->base_lam[i];
     }
-    transpose_times(stepper->base_J, nc, nq, stepper->rhs_lam, stepper->jt_lam);
+    dep_cs_transpose_times(stepper->constraints, stepper->base_J, stepper->rhs_lam, stepper->jt_lam);
     dep_mass_solve(&stepper->system->mass, stepper->jt_lam, stepper->force);
     for (int j = 0; j < nq; ++j) { /* the moves of q and qd in tolerance units */
         double move = h * h * stepper->profile.position * stepper->force[j];
@@ -276,21 +265,18 @@ static void measure_velocity(void *context, const double *lam1, dep_measurement 
     for (int i = 0; i < nc; ++i) {
         stepper->rhs_lam[i] = lam1[i] - stepper->lam_pos[i];
     }
-    transpose_times(pos->J, nc, nq, stepper->rhs_lam, stepper->jt_lam);
+    dep_cs_transpose_times(stepper->constraints, pos->J, stepper->rhs_lam, stepper->jt_lam);
     dep_mass_solve(&stepper->system->mass, stepper->jt_lam, stepper->force);
     for (int j = 0; j < nq; ++j) {
         out->x[j] = pos->rk.y1[nq + j] - stepper->h * stepper->profile.velocity * stepper->force[j];
     }
+    dep_cs_times(stepper->constraints, pos->J, out->x, out->v);
     for (int i = 0; i < nc; ++i) {
-        double sum = 0.0;
-        for (int j = 0; j < nq; ++j) {
-            sum += pos->J[i * nq + j] * out->x[j];
-        }
-        out->v[i] = -sum - stepper->phi_t1[i];
+        out->v[i] = -out->v[i] - stepper->phi_t1[i];
     }
     out->J = pos->J;
     out->jacobian_id = pos->jacobian_id;
-    out->scale = dep_product_scale(pos->J, nc, nq, out->x);
+    out->scale = dep_cs_product_scale(stepper->constraints, pos->J, out->x);
 }
 
 /* The new state's work and the step's interpolant. */

@@ -94,6 +94,12 @@ def test_hinge_jacobian_and_rates(compiled):
         jacobian = m.hinge_jacobian(s.q, s.p)
         assert_close(jacobian, numeric)
         assert_close(m.hinge_rates(s.q, s.qd, s.p), jacobian @ s.qd, rtol=1e-12)
+        # the core takes a lock row's pattern from HINGE_JACOBIAN_ROWS/COLS: nothing outside
+        outside = np.ones(jacobian.shape, dtype=bool)
+        outside[list(m.HINGE_JACOBIAN_ROWS), list(m.HINGE_JACOBIAN_COLS)] = False
+        assert not np.any(jacobian[outside])
+    pairs = list(zip(m.HINGE_JACOBIAN_ROWS, m.HINGE_JACOBIAN_COLS))
+    assert pairs == sorted(set(pairs))
 
 
 def test_hinge_gamma_is_minus_the_second_derivative_of_theta(compiled):

@@ -51,6 +51,8 @@ def initial_state(p):
 # Hand-made: the initial state is given whole, so there is no assembly tree (NV = 0).
 TREE_JOINTS = ()
 TREE_HELD = ()
+HINGE_JACOBIAN_ROWS = (0,)
+HINGE_JACOBIAN_COLS = (2,)
 INPUTS = ()
 INPUT_UNITS = ()
 INPUT_SLOTS = ()

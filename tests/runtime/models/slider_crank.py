@@ -68,6 +68,8 @@ def initial_state(p):
 # Hand-made: the initial state is given whole, so there is no assembly tree (NV = 0).
 TREE_JOINTS = ()
 TREE_HELD = ()
+HINGE_JACOBIAN_ROWS = (0, 1, 1, 2, 2)
+HINGE_JACOBIAN_COLS = (2, 2, 5, 5, 8)
 INPUTS = ()
 INPUT_UNITS = ()
 INPUT_SLOTS = ()
