@@ -84,8 +84,9 @@ def assemble(model: ir.Model, kin: Kinematics) -> Assembly:
     values = tuple(state.values)
     tree_jacobian = tuple(tuple(state.jacobian[s].get(v, sympy.Integer(0)) for v in values)
                           for s in kin.symbols.q)
-    qd0 = [sympy.Add(*(d * state.values[v][1] for v, d in zip(values, row)))
-           for row in tree_jacobian]
+    rates = [state.values[v][1] for v in values]
+    qd0 = [sympy.Add(*(d * rate for d, rate in zip(row, rates) if rate != 0))  # (0 * d asks
+           for row in tree_jacobian]                                           # sympy a lot)
     initial = {v: value for v, (value, _) in state.values.items()}
     angles = [state.beam_angles[i] for i in range(len(model.beams))]
     joints = [model.hinges[p.joint] if p.kind is ir.JointKind.HINGE else model.sliders[p.joint]

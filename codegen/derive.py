@@ -80,9 +80,15 @@ def column(values) -> ImmutableMatrix:
 
 
 def jacobian(vector: ImmutableMatrix, symbols: tuple[sympy.Symbol, ...]) -> ImmutableMatrix:
-    """d vector / d symbols, (rows, len(symbols)), also for empty vectors."""
-    return ImmutableMatrix(vector.rows, len(symbols),
-                           [vector[i].diff(s) for i in range(vector.rows) for s in symbols])
+    """d vector / d symbols, (rows, len(symbols)), also for empty vectors. Each entry is
+    differentiated only by the symbols it contains (a joint's rows touch two members), so
+    the cost follows the non-zeros, not rows x symbols."""
+    zero = sympy.Integer(0)
+    entries = []
+    for i in range(vector.rows):
+        present = vector[i].free_symbols
+        entries += [vector[i].diff(s) if s in present else zero for s in symbols]
+    return ImmutableMatrix(vector.rows, len(symbols), entries)
 
 
 def acceleration_rhs(vector: ImmutableMatrix, vector_q: ImmutableMatrix,
