@@ -137,24 +137,6 @@ static int factor_schur(dep_multipliers *mp, int nc)
     return 1;
 }
 
-static void cholesky_solve(const double *L, int n, const double *b, double *x)
-{
-    for (int i = 0; i < n; ++i) { /* L y = b */
-        double sum = b[i];
-        for (int k = 0; k < i; ++k) {
-            sum -= L[i * n + k] * x[k];
-        }
-        x[i] = sum / L[i * n + i];
-    }
-    for (int i = n - 1; i >= 0; --i) { /* L^T x = y */
-        double sum = x[i];
-        for (int k = i + 1; k < n; ++k) {
-            sum -= L[k * n + i] * x[k];
-        }
-        x[i] = sum / L[i * n + i];
-    }
-}
-
 /* ---- S in envelope form (a diagonal mass matrix) -------------------------------------- */
 
 /* S_ab of the envelope (b in first[a]..a). */
@@ -320,7 +302,7 @@ static int solve_schur(dep_multipliers *mp, const double *J, int n, const double
         if (mp->schur_envelope) {
             envelope_solve(mp, n, b, mp->x);
         } else {
-            cholesky_solve(mp->L, n, b, mp->x);
+            dep_cholesky_solve(mp->L, n, b, mp->x);
         }
         return 1;
     }

@@ -75,7 +75,11 @@ void dep_mass_solve(const dep_mass *mass, const double *b, double *x)
         }
         return;
     }
-    const double *L = mass->cholesky;
+    dep_cholesky_solve(mass->cholesky, n, b, x);
+}
+
+void dep_cholesky_solve(const double *L, int n, const double *b, double *x)
+{
     for (int i = 0; i < n; ++i) { /* L y = b */
         double sum = b[i];
         for (int k = 0; k < i; ++k) {

@@ -44,6 +44,8 @@ typedef struct dep_mass {
 } dep_mass;
 
 void dep_mass_solve(const dep_mass *mass, const double *b, double *x); /* x = M^-1 b; x may be b */
+/* x = (L L^T)^-1 b for a dense lower Cholesky factor L (n x n); x may be b. */
+void dep_cholesky_solve(const double *L, int n, const double *b, double *x);
 
 struct dep_mechanism;
 
