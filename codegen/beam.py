@@ -131,6 +131,17 @@ class BeamSymbolic:
         element by element. Identical to differentiating `elastic_energy`, much faster."""
         return self._assemble(element.force() for element in self.elements)
 
+    def stiffness(self) -> dict[tuple[int, int], sympy.Expr]:
+        """The elastic stiffness J^T K J (Element.stiffness) assembled element by element:
+        (row, column) in the beam's coordinates -> entry, row-major; N/m on positions."""
+        total: dict[tuple[int, int], list[sympy.Expr]] = {}
+        for k, element in enumerate(self.elements):
+            for a, row in enumerate(element.stiffness()):
+                for b, value in enumerate(row):
+                    if value != 0:
+                        total.setdefault((4 * k + a, 4 * k + b), []).append(value)
+        return {place: sympy.Add(*terms) for place, terms in sorted(total.items())}
+
     def damping_force(self, qd: Sequence[sympy.Symbol]) -> sympy.Matrix:
         """Stiffness-proportional damping -beta J^T K J qd per element (column), beta =
         beam.damping (s), J = dw/dq of the element deformation; zeros if the beam has none.

@@ -158,6 +158,7 @@ class _Template:
     strains: tuple[sympy.Expr, ...]  # w
     energy: sympy.Expr  # 1/2 w^T K w
     force: tuple[sympy.Expr, ...]  # -J^T K w, J = dw/dq_e
+    stiffness: tuple[tuple[sympy.Expr, ...], ...]  # 8x8 J^T K J
     damping_force: tuple[sympy.Expr, ...]  # -beta J^T K J qd_e
     damping_power: sympy.Expr  # beta (J qd_e)^T K (J qd_e)
 
@@ -175,6 +176,7 @@ def _template() -> _Template:
         coordinates, rates, (length, EI, EA, beta), strains,
         energy=quadratic_form(stiffness, strains),
         force=tuple(-jacobian.T * (stiffness * sympy.Matrix(strains))),
+        stiffness=tuple(tuple(row) for row in (jacobian.T * stiffness * jacobian).tolist()),
         damping_force=tuple(-beta * jacobian.T * (stiffness * sympy.Matrix(strain_rates))),
         damping_power=2 * beta * quadratic_form(stiffness, strain_rates),
     )
@@ -211,6 +213,16 @@ class Element:
     def force(self) -> tuple[sympy.Expr, ...]:
         """-dV/dq_e (8), the exact gradient of `energy`."""
         return self._substitute(_template().force)
+
+    def stiffness(self) -> tuple[tuple[sympy.Expr, ...], ...]:
+        """J^T K J (8x8, N/m on positions), J = dw/dq_e: the Hessian of `energy` less its
+        term in the strains themselves (w^T K d^2w/dq^2, of the order of the strains), so
+        symmetric positive semi-definite in every pose. The linearly implicit step takes it
+        as the elastic force's Jacobian -df/dq; the damping's d f/d qd is exactly -beta times
+        it."""
+        rows = _template().stiffness
+        flat = self._substitute(tuple(e for row in rows for e in row))
+        return tuple(flat[8 * a:8 * a + 8] for a in range(8))
 
     def damping_force(self, rates: Sequence[sympy.Expr],
                       beta: sympy.Expr) -> tuple[sympy.Expr, ...]:

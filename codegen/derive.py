@@ -71,6 +71,9 @@ class SymbolicSystem:
     tree_jacobian: ImmutableMatrix  # (NQ, NV)
     loop_angles: ImmutableMatrix  # (NH, 1) given initial angle of a loop-closing hinge, else nan
     loop_rates: ImmutableMatrix  # (NH, 1) its given rate, else nan
+    stiffness_pattern: tuple[tuple[int, int], ...]  # NKZ structural non-zeros, row-major
+    stiffness: ImmutableMatrix  # (NKZ, 1) K ~ -df/dq of the beams' elasticity there (N/m)
+    stiffness_damping: ImmutableMatrix  # (NKZ, 1) D = -df/dqd of their damping there (N s/m)
 
 
 def column(values) -> ImmutableMatrix:
@@ -137,6 +140,8 @@ def derive(model: ir.Model) -> SymbolicSystem:
         tree_jacobian=ImmutableMatrix(assembly.tree_jacobian) if assembly.v
         else ImmutableMatrix.zeros(len(q), 0),
         loop_angles=_loop_targets(model, kin, 1), loop_rates=_loop_targets(model, kin, 2),
+        stiffness_pattern=loads.stiffness.pattern, stiffness=column(loads.stiffness.K),
+        stiffness_damping=column(loads.stiffness.D),
     )
 
 

@@ -27,6 +27,59 @@ class Loads:
     dissipator_names: tuple[str, ...]
     dissipation: tuple[sympy.Expr, ...]
     force: tuple[sympy.Expr, ...]
+    stiffness: Stiffness
+
+
+@dataclass(frozen=True)
+class Stiffness:
+    """The stiff forces' Jacobian, for the linearly implicit step of a model with beams:
+    K ~ -df/dq and D ~ -df/dqd on one structural pattern (row-major), each a sum of symmetric
+    positive semi-definite terms (docs/method.md, 10). Empty for a model without beams."""
+
+    pattern: tuple[tuple[int, int], ...]
+    K: tuple[sympy.Expr, ...]
+    D: tuple[sympy.Expr, ...]
+
+
+def implicit_stiffness(model: ir.Model, kin: Kinematics, jacobian: sympy.Matrix) -> Stiffness:
+    """Each beam's J^T K J (BeamSymbolic.stiffness) placed at its coordinates and beta times
+    it for a damped beam (its damping force is exactly -beta J^T K J qd); each hinge spring
+    and damper k g g^T, c g g^T with g = d theta / dq; each cable k g g^T with g the gradient
+    of its stretch. These leave out the terms in the deformation, angle or stretch itself
+    (the strain-weighted curvature), so each is positive semi-definite in every pose."""
+    if not model.beams:
+        return Stiffness((), (), ())
+    K: dict[tuple[int, int], list[sympy.Expr]] = {}
+    D: dict[tuple[int, int], list[sympy.Expr]] = {}
+    for element, symbols in zip(kin.beams, kin.symbols.beam_q):
+        if not symbols or not hasattr(element, "stiffness"):
+            continue
+        start = kin.symbols.q.index(symbols[0])
+        for (a, b), value in element.stiffness().items():
+            K.setdefault((start + a, start + b), []).append(value)
+            if element.damping is not None:
+                D.setdefault((start + a, start + b), []).append(element.damping * value)
+
+    def outer(target: dict, coefficient: sympy.Expr, gradient: list[sympy.Expr]) -> None:
+        present = [(j, g) for j, g in enumerate(gradient) if g != 0]
+        for i, gi in present:
+            for j, gj in present:
+                target.setdefault((i, j), []).append(coefficient * gi * gj)
+
+    for index, hinge in enumerate(model.hinges):
+        gradient = list(jacobian[index, :])
+        if hinge.stiffness is not None:
+            outer(K, kin.const(hinge.stiffness), gradient)
+        if hinge.damping is not None:
+            outer(D, kin.const(hinge.damping), gradient)
+    for cable in model.cables:
+        gradient = [sympy.Add(*(kin.const(term.coefficient) * jacobian[term.hinge, j]
+                                for term in cable.terms)) for j in range(jacobian.cols)]
+        outer(K, kin.const(cable.stiffness), gradient)
+    pattern = tuple(sorted(set(K) | set(D)))
+    zero = sympy.Integer(0)
+    return Stiffness(pattern, tuple(sympy.Add(*K.get(place, [zero])) for place in pattern),
+                     tuple(sympy.Add(*D.get(place, [zero])) for place in pattern))
 
 
 def derive_loads(model: ir.Model, kin: Kinematics, mass_matrix: sympy.Matrix,
@@ -47,6 +100,7 @@ def derive_loads(model: ir.Model, kin: Kinematics, mass_matrix: sympy.Matrix,
         dissipator_names=tuple(name for name, _, _ in dissipators),
         dissipation=tuple(power for _, _, power in dissipators),
         force=tuple(force),
+        stiffness=implicit_stiffness(model, kin, jacobian),
     )
 
 

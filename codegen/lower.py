@@ -115,6 +115,7 @@ def function_specs(system: SymbolicSystem) -> tuple[FunctionSpec, ...]:
         "hinge_rates": (s.hinge_rates,), "hinge_jacobian": (s.hinge_jacobian,),
         "hinge_gamma": (s.hinge_gamma,), "hinge_properties": (s.hinge_properties,),
         "outputs": (s.outputs,), "energy": (s.energy,), "dissipation": (s.dissipation,),
+        "stiffness": (s.stiffness, s.stiffness_damping),
     }
     return tuple(FunctionSpec(f.name, f.args, f.summary,
                               tuple((r.name, m) for r, m in zip(f.results, matrices[f.name])),
@@ -205,6 +206,8 @@ def lower_module(model: ir.Model, system: SymbolicSystem, printer: PrinterFactor
         "INPUTS": tuple(c for put in model.inputs for c in put.components),
         "INPUT_UNITS": tuple(model.params[s].unit for put in model.inputs for s in put.slots),
         "INPUT_SLOTS": tuple(s for put in model.inputs for s in put.slots),
+        "STIFFNESS_ROWS": tuple(i for i, _ in system.stiffness_pattern),
+        "STIFFNESS_COLS": tuple(j for _, j in system.stiffness_pattern),
     }
     tables = tuple(TableView(t.constant, t.field, t.ctype, values[t.constant])
                    for t in interface.TABLES)

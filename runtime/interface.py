@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-ABI = 5  # DEP_MODEL_ABI: bumped whenever the dep_model struct changes
+ABI = 6  # DEP_MODEL_ABI: bumped whenever the dep_model struct changes
 
 ARGUMENTS = ("v", "q", "qd", "t", "p")  # every function takes a subsequence, in this order
 
@@ -82,6 +82,7 @@ SIZES = (
     Size("nv", "TREE_JOINTS", "joints of the assembly tree"),
     Size("ni", "INPUTS", "inputs (external loads a run or a co-simulation drives)"),
     Size("nhnz", "HINGE_JACOBIAN_ROWS", "structural non-zeros of hinge_jacobian"),
+    Size("nkz", "STIFFNESS_ROWS", "structural non-zeros of the stiffness (0: no beams)"),
 )
 
 TABLES = (
@@ -113,6 +114,9 @@ TABLES = (
     Table("input_units", "INPUT_UNITS", "const char *const", "ni", "SI unit text"),
     Table("input_slots", "INPUT_SLOTS", "const int", "ni",
           "u_k(t) = p[slot] + p[slot + 1] t: the parameters holding input k"),
+    Table("stiffness_rows", "STIFFNESS_ROWS", "const int", "nkz",
+          "row-major sorted: where the stiff forces' Jacobian can be non-zero"),
+    Table("stiffness_cols", "STIFFNESS_COLS", "const int", "nkz", ""),
 )
 
 SETTINGS = (("t_end", "T_END"), ("tol", "TOL"), ("dt_out", "DT_OUT"))
@@ -156,6 +160,9 @@ FUNCTIONS = (
              "Kinetic energy and each potential (J), in the order of ENERGIES."),
     Function("dissipation", ("q", "qd", "t", "p"), (Output("P", ("nd",)),),
              "Power removed by each element of DISSIPATORS (W)."),
+    Function("stiffness", ("q", "p"), (Output("K", ("nkz",)), Output("D", ("nkz",))),
+             "The stiff forces' Jacobian of a model with beams, K ~ -df/dq and D ~ -df/dqd, at "
+             "(STIFFNESS_ROWS, STIFFNESS_COLS)."),
 )
 
 FUNCTION_NAMES = tuple(f.name for f in FUNCTIONS)

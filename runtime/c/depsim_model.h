@@ -11,7 +11,7 @@
 #ifndef DEPSIM_MODEL_H
 #define DEPSIM_MODEL_H
 
-#define DEP_MODEL_ABI 5 /* bumped whenever this struct changes */
+#define DEP_MODEL_ABI 6 /* bumped whenever this struct changes */
 
 typedef struct dep_model {
     int abi; /* DEP_MODEL_ABI of the header the model was compiled with */
@@ -37,6 +37,7 @@ typedef struct dep_model {
     int nv; /* joints of the assembly tree */
     int ni; /* inputs (external loads a run or a co-simulation drives) */
     int nhnz; /* structural non-zeros of hinge_jacobian */
+    int nkz; /* structural non-zeros of the stiffness (0: no beams) */
 
     /* tables (NULL when empty) */
     const char *const *coordinate_names; /* nq */
@@ -61,6 +62,8 @@ typedef struct dep_model {
     const char *const *input_names; /* ni */
     const char *const *input_units; /* ni, SI unit text */
     const int *input_slots; /* ni, u_k(t) = p[slot] + p[slot + 1] t: the parameters holding input k */
+    const int *stiffness_rows; /* nkz, row-major sorted: where the stiff forces' Jacobian can be non-zero */
+    const int *stiffness_cols; /* nkz */
 
     /* the model's simulation settings */
     double t_end, tol, dt_out;
@@ -104,6 +107,8 @@ typedef struct dep_model {
     void (*energy)(const double *q, const double *qd, double t, const double *p, double *E);
     /* Power removed by each element of DISSIPATORS (W). */
     void (*dissipation)(const double *q, const double *qd, double t, const double *p, double *P);
+    /* The stiff forces' Jacobian of a model with beams, K ~ -df/dq and D ~ -df/dqd, at (STIFFNESS_ROWS, STIFFNESS_COLS). */
+    void (*stiffness)(const double *q, const double *p, double *K, double *D);
 } dep_model;
 
 #endif /* DEPSIM_MODEL_H */

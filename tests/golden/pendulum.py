@@ -41,6 +41,8 @@ HINGE_JACOBIAN_COLS = (2,)
 INPUTS = ()
 INPUT_UNITS = ()
 INPUT_SLOTS = ()
+STIFFNESS_ROWS = ()
+STIFFNESS_COLS = ()
 
 T_END = 10.0
 TOL = 1e-09
@@ -230,3 +232,10 @@ def dissipation(q, qd, t, p):
     """Power removed by each element of DISSIPATORS (W)."""
     P = numpy.zeros((0,))
     return P
+
+
+def stiffness(q, p):
+    """The stiff forces' Jacobian of a model with beams, K ~ -df/dq and D ~ -df/dqd, at (STIFFNESS_ROWS, STIFFNESS_COLS)."""
+    K = numpy.zeros((0,))
+    D = numpy.zeros((0,))
+    return K, D

@@ -56,6 +56,8 @@ HINGE_JACOBIAN_COLS = (2,)
 INPUTS = ()
 INPUT_UNITS = ()
 INPUT_SLOTS = ()
+STIFFNESS_ROWS = ()  # no stiff forces: the explicit step throughout
+STIFFNESS_COLS = ()
 
 
 def tree_values(p):
@@ -120,6 +122,10 @@ def energy(q, qd, t, p):
     L, m, g = p[0], p[1], p[2]
     kinetic = 0.5 * m * (qd[0] ** 2 + qd[1] ** 2) + 0.5 * m * L * L / 12 * qd[2] ** 2
     return np.array([kinetic, m * g * q[1]])
+
+
+def stiffness(q, p):
+    return np.zeros(0), np.zeros(0)
 
 
 def dissipation(q, qd, t, p):

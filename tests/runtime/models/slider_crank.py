@@ -73,6 +73,8 @@ HINGE_JACOBIAN_COLS = (2, 2, 5, 5, 8)
 INPUTS = ()
 INPUT_UNITS = ()
 INPUT_SLOTS = ()
+STIFFNESS_ROWS = ()  # no stiff forces: the explicit step throughout
+STIFFNESS_COLS = ()
 
 
 def tree_values(p):
@@ -157,6 +159,10 @@ def energy(q, qd, t, p):
     k, preload = p[6], p[7]
     kinetic = 0.5 * sum(m * qd[i] ** 2 for i, m in enumerate(_masses(p)))
     return np.array([kinetic, -preload * q[2] + 0.5 * k * q[2] ** 2])
+
+
+def stiffness(q, p):
+    return np.zeros(0), np.zeros(0)
 
 
 def dissipation(q, qd, t, p):
