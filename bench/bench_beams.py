@@ -35,9 +35,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from scipy import optimize
+from scipy import optimize, signal
 
 import depsim
+from beam_reference import reference_path
 
 ROOT = Path(__file__).resolve().parents[1]
 MODEL = ROOT / "examples" / "two_link_flex.dep"
@@ -45,6 +46,7 @@ OUTPUTS = ("chord2", "tip2")
 # one period of link 2's first bending mode in M2 (about 283 rad/s): the window of the
 # smoothed differences, which leave out the bending waves the release excites
 SMOOTHING = 2 * np.pi / 283.0  # s
+LOW_PASS = 60.0  # Hz: the issue's low-pass of tip2 (link 2's first mode is 45 Hz)
 CANTILEVER_ROOTS = (1.8751040687119611, 4.6940911329741746)  # cos b cosh b = -1
 CANTILEVER = """\
 model cantilever
@@ -79,14 +81,14 @@ class Run:
 
 
 def run_m2(elements: int, span: float, tol: float, dt_out: float, out_dir: Path,
-           target: str = "numpy") -> Run:
+           target: str = "numpy", stepping: str = "auto") -> Run:
     """Compile M2 with `elements` per link into out_dir and integrate it over [0, span] s."""
     start = time.perf_counter()
     model = depsim.load(MODEL).with_elements({"link1": elements, "link2": elements})
     sim = model.compile(target=target, out_dir=out_dir / f"{target}{elements}")
     compiled = time.perf_counter()
     # fine meshes over seconds take millions of explicit steps on purpose (docs/beams.md)
-    result = sim.run(t_end=span, dt_out=dt_out, tol=tol, max_steps=1e9)
+    result = sim.run(t_end=span, dt_out=dt_out, tol=tol, max_steps=1e9, stepping=stepping)
     done = time.perf_counter()
     return Run(elements, span, compiled - start, done - compiled, result)
 
@@ -101,7 +103,7 @@ def cost_table(runs: list[Run]) -> str:
         drift, relative = run.energy_drift()
         lines.append(
             f"| {run.elements} | {len(run.result.coordinate_names)} | {run.compile_seconds:.1f} "
-            f"| {run.run_seconds:.1f} | {run.seconds_per_second:.0f} | {s.accepted_steps} "
+            f"| {run.run_seconds:.2f} | {run.seconds_per_second:.2f} | {s.accepted_steps} "
             f"| {s.rejected_steps} | {s.failed_steps} | {s.min_step:.1e}..{s.max_step:.1e} "
             f"| {s.position.mean:.2f}, {s.velocity.mean:.2f}, {s.acceleration.mean:.2f} "
             f"| {drift:.1e} ({relative:.1e}) |")
@@ -137,6 +139,43 @@ def convergence_table(runs: list[Run]) -> str:
                         f"{np.max(np.abs(fine_mean - coarse_mean)):.2e}")
             cells += [f"{np.max(np.abs(values - coarse)):.2e}", smoothed]
         lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def low_passed(values: np.ndarray, dt: float) -> np.ndarray:
+    """values through a zero-phase 4th-order Butterworth low-pass at LOW_PASS Hz."""
+    b, a = signal.butter(4, LOW_PASS, fs=1.0 / dt)
+    return signal.filtfilt(b, a, values)
+
+
+def reference_table(runs: list[Run]) -> str:
+    """Each run against the references of bench/beam_reference.py (same mesh, explicit step,
+    every mode resolved; and the finest one there is), on their common output times: the
+    largest difference of chord2, of tip2 raw and of tip2 low-passed at LOW_PASS Hz."""
+    found = {n: np.load(reference_path(n)) for n in (2, 4, 8, 16, 32, 64)
+             if reference_path(n).exists()}
+    if not found:
+        return ("no reference: run bench/beam_reference.py --elements 16 (about 4 minutes) "
+                "to write one")
+    finest = max(found)
+    lines = [f"| elements/link | reference | chord2 rad | tip2 m | tip2 low-passed {LOW_PASS:g} "
+             "Hz m |", "|---|---|---|---|---|"]
+    for run in runs:
+        for n in sorted({run.elements, finest} & set(found)):
+            ref = found[n]
+            times = run.result.times
+            k = np.searchsorted(ref["times"], times - 1e-12)
+            ok = (k < len(ref["times"])) & (np.abs(ref["times"][np.minimum(k, len(ref["times"]) - 1)] - times) < 1e-9)
+            if ok.sum() < 10:
+                continue
+            k = k[ok]
+            chord = np.abs(run.result.output("chord2")[ok] - ref["chord2"][k]).max()
+            tip, tip_ref = run.result.output("tip2")[ok], ref["tip2"][k]
+            dt = float(times[1] - times[0])
+            smooth = np.abs(low_passed(tip, dt) - low_passed(tip_ref, dt)).max()
+            label = f"{n} elements, explicit tol {float(ref['tol']):g}"
+            lines.append(f"| {run.elements} | {label} | {chord:.1e} | "
+                         f"{np.abs(tip - tip_ref).max():.1e} | {smooth:.1e} |")
     return "\n".join(lines)
 
 
@@ -177,20 +216,41 @@ def main() -> None:
                         help="elements of the cantilever frequency run (0: skip)")
     parser.add_argument("--target", choices=["numpy", "c"], default="numpy",
                         help="backend (c: the compiled library, about 60x faster)")
+    parser.add_argument("--stepping", choices=["auto", "explicit", "implicit"], default="auto",
+                        help="the ODE method (docs/method.md, 10)")
+    parser.add_argument("--explicit-too", action="store_true",
+                        help="also run each mesh with stepping explicit, side by side")
     parser.add_argument("--save", metavar="NPZ", help="write times, chord2, tip2 and the "
                         "total energy of each run to this .npz file")
     args = parser.parse_args()
     counts = [int(n) for n in args.elements.split(",")]
     dt_out = min(args.dt_out, args.span / 10)
     with tempfile.TemporaryDirectory() as tmp:
-        runs = []
+        runs, explicit = [], []
         for n in counts:
-            runs.append(run_m2(n, args.span, args.tol, dt_out, Path(tmp), args.target))
+            runs.append(run_m2(n, args.span, args.tol, dt_out, Path(tmp), args.target,
+                               args.stepping))
             print(f"  {n} elements/link: {runs[-1].run_seconds:.1f} s", flush=True)
-        print(f"\nM2 over {args.span} s, tol {args.tol:g}, outputs every {dt_out:g} s\n")
+            if args.explicit_too:
+                explicit.append(run_m2(n, args.span, args.tol, dt_out, Path(tmp), args.target,
+                                       "explicit"))
+                print(f"  {n} elements/link, explicit: {explicit[-1].run_seconds:.1f} s",
+                      flush=True)
+        print(f"\nM2 over {args.span} s, tol {args.tol:g}, stepping {args.stepping}, outputs "
+              f"every {dt_out:g} s\n")
         print(cost_table(runs))
+        if explicit:
+            print("\nthe same with stepping explicit (DOPRI 5(4) throughout)\n")
+            print(cost_table(explicit))
+            print("\n" + "\n".join(
+                f"{a.elements} elements/link: explicit / {args.stepping} = "
+                f"{b.run_seconds / a.run_seconds:.1f} in time, "
+                f"{b.result.stats.accepted_steps / a.result.stats.accepted_steps:.1f} in steps"
+                for a, b in zip(runs, explicit)))
         print()
         print(convergence_table(runs))
+        print()
+        print(reference_table(runs + explicit))
         if args.save:
             np.savez(args.save, **{f"{key}_{run.elements}": value for run in runs
                                    for key, value in (("t", run.result.times),

@@ -215,14 +215,16 @@ class Simulator:
 
     def run(self, set: Mapping[str, float | str] | None = None, t_end: float | None = None,
             dt_out: float | None = None, tol: float | None = None, progress: bool = False,
-            max_steps: float | None = None, inputs=None):
+            max_steps: float | None = None, inputs=None, stepping: str = "auto"):
         """Simulate with parameters `set` applied; returns a `depsim.runtime.Result`.
         max_steps: the most steps the run may take (default 1e6; docs/method.md, 6);
-        inputs: {input: time table as rows (t, u) in SI, or one number} (docs/api.md)."""
+        inputs: {input: time table as rows (t, u) in SI, or one number} (docs/api.md);
+        stepping: "auto", "explicit" or "implicit" (docs/method.md, 10)."""
         from depsim.runtime import simulate
 
         return simulate(self.module, self.parameters(set), t_end=t_end, dt_out=dt_out,
-                        tol=tol, progress=progress, max_steps=max_steps, inputs=inputs)
+                        tol=tol, progress=progress, max_steps=max_steps, inputs=inputs,
+                        stepping=stepping)
 
 
 def _unknown_parameter(name: str, by_name, derived) -> str:

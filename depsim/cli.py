@@ -123,6 +123,10 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--max-steps", type=_positive_float, metavar="N",
                      help="the most steps the run may take (default 1e6); a stiff run that "
                           "would need more stops at once")
+    run.add_argument("--stepping", choices=("auto", "explicit", "implicit"), default="auto",
+                     help="the ODE method under the multiplier iteration: auto (default: "
+                          "explicit, and linearly implicit once a beam's stiff modes bound "
+                          "the explicit step), explicit or implicit (docs/method.md)")
     run.add_argument("-o", "--out", metavar="CSV", help="write outputs to a CSV file")
     run.add_argument("--summary", metavar="JSON", help="write a JSON run summary")
     run.add_argument("--plot", metavar="PNG", help="plot every output against time (.png, "
@@ -328,7 +332,8 @@ def _run(args) -> int:
     sim = model.compile(target=args.target)
     try:
         result = sim.run(set=settings, t_end=args.t_end, dt_out=args.dt_out, tol=args.tol,
-                         progress=True, max_steps=args.max_steps, inputs=tables)
+                         progress=True, max_steps=args.max_steps, inputs=tables,
+                         stepping=args.stepping)
     except ValueError as exc:  # a setting the runtime refuses (simulate's documented ValueError)
         raise _usage(str(exc)) from exc
     with all_or_none():

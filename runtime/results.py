@@ -75,6 +75,8 @@ class Stats:
     min_step: float = 0.0
     max_step: float = 0.0
     events: int = 0
+    implicit_from: float | None = None  # s: from when the step was linearly implicit
+    stiff_rate: float | None = None  # 1/s: the stiff mode's rate that brought it (auto)
 
 
 @dataclass(frozen=True, slots=True)

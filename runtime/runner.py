@@ -14,6 +14,8 @@ re-raised as it was).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .binding import bind
@@ -29,7 +31,7 @@ from .results import EventRecord, PassStats, Result, Stats
 def simulate(module, params: np.ndarray | None = None, t_end: float | None = None,
              dt_out: float | None = None, tol: float | None = None, events=(),
              progress: bool = False, mechanics: bool = True,
-             max_steps: float | None = None, inputs=None) -> Result:
+             max_steps: float | None = None, inputs=None, stepping: str = "auto") -> Result:
     """Integrate a model with the iterative multiplier method (docs/method.md).
 
     module: a generated NumPy module (docs/generated-module.md) or a compiled C model
@@ -41,7 +43,10 @@ def simulate(module, params: np.ndarray | None = None, t_end: float | None = Non
     as soon as the stiffness shows (docs/method.md, 6); inputs: {input name: time table},
     a table being rows (t, u) in s and SI, u linear in between (a repeated t is a jump) and
     held beyond the ends, or one number (a constant); an input not given keeps its
-    parameters (docs/language.md, Inputs).
+    parameters (docs/language.md, Inputs); stepping: the ODE method under the multiplier
+    iteration, "auto" (DOPRI 5(4), and for a model with beams the linearly implicit step once
+    a stiff mode holds DOPRI's step at its stability bound), "explicit" or "implicit"
+    (docs/method.md, 10).
     Raises SolverError when the integration cannot go on, ValueError for bad settings.
     """
     binding = bind(module)
@@ -51,7 +56,7 @@ def simulate(module, params: np.ndarray | None = None, t_end: float | None = Non
     settings = view.new("dep_settings *", {
         "t_end": _setting(t_end, model.T_END), "dt_out": _setting(dt_out, model.DT_OUT),
         "tol": _setting(tol, model.TOL), "mechanics": int(bool(mechanics)),
-        "max_steps": _setting(max_steps, 0.0)})
+        "max_steps": _setting(max_steps, 0.0), "stepping": _stepping(stepping)})
     tables = input_tables(model, inputs)
     table_array = view.new("dep_input_table[]", max(len(tables), 1))
     for entry, (index, times, values) in zip(table_array, tables):
@@ -88,6 +93,15 @@ def simulate(module, params: np.ndarray | None = None, t_end: float | None = Non
         del progress_callback
         if status == library.DEP_OK:
             library.dep_result_free(result)
+
+
+STEPPINGS = ("auto", "explicit", "implicit")  # dep_settings.stepping, in its enum's order
+
+
+def _stepping(name: str) -> int:
+    if name not in STEPPINGS:
+        raise ValueError(f"stepping must be one of {', '.join(STEPPINGS)}, got {name!r}")
+    return STEPPINGS.index(name)
 
 
 def input_tables(module, inputs) -> list[tuple[int, np.ndarray, np.ndarray]]:
@@ -166,7 +180,13 @@ def _stats(s) -> Stats:
                  velocity=passes(s.velocity), acceleration=passes(s.acceleration),
                  cg_iterations=s.cg_iterations, factorizations=s.factorizations,
                  max_v_pos=s.max_v_pos, max_v_vel=s.max_v_vel, max_v_acc=s.max_v_acc,
-                 min_step=s.min_step, max_step=s.max_step, events=s.events)
+                 min_step=s.min_step, max_step=s.max_step, events=s.events,
+                 implicit_from=_number(s.implicit_from), stiff_rate=_number(s.stiff_rate))
+
+
+def _number(value: float) -> float | None:
+    """A statistic the core leaves nan when it does not apply, as None."""
+    return None if math.isnan(value) else float(value)
 
 
 def _value(d):

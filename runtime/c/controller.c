@@ -3,9 +3,9 @@
  *
  * lambda(t) over a step is the polynomial through the last accepted multipliers and the
  * step's unknown end value (up to a cubic). The new step h_new = fac h combines the error of
- * that interpolation (~h^(nodes + 3)) with the ODE method's own error (~h^5), both in the
- * weighted RMS norm (1: at tolerance); a step is accepted when err_lam + err_ode <= 1 and fac
- * solves err_lam fac^p + err_ode fac^5 = SAFETY, times a proportional-integral factor,
+ * that interpolation (~h^(nodes + 3)) with the ODE method's own error (~h^5 for DOPRI, h^3
+ * for the Rosenbrock step), both in the weighted RMS norm (1: at tolerance); a step is
+ * accepted when err_lam + err_ode <= 1 and fac solves err_lam fac^p + err_ode fac^r = SAFETY, times a proportional-integral factor,
  * clipped to [FAC_MIN, FAC_MAX].
  */
 #include <math.h>
@@ -16,8 +16,8 @@
 #define SAFETY 0.6
 #define FAC_MIN 0.2
 #define FAC_MAX 5.0
-#define ERROR_ORDER 5
 #define PI_BETA 0.08
+#define PI_ORDER_BETA 0.2 /* the Rosenbrock step's, over the error's power of h */
 #define PI_FLOOR 1e-4
 #define RHO_TARGET 0.2 /* wanted contraction rate of the position pass */
 
@@ -156,6 +156,13 @@ void dep_profile_value(const dep_profile *profile, const double *lam_end, double
     }
 }
 
+double dep_profile_end_weight(const dep_profile *profile, double t)
+{
+    double w[DEP_PROFILE_NODES + 1];
+    basis(profile->u, profile->nodes, (t - profile->t0) / profile->h, w);
+    return w[profile->nodes];
+}
+
 /* The position pass's starting lambda_{i+1}: the end value for which the profile pushes the
    step end as the multipliers extrapolated from every accepted point would (for frozen
    Phi_q): integral (1 - s) (profile(s) - extrapolation(s)) ds = 0. */
@@ -190,9 +197,9 @@ void dep_history_predict(const dep_history *history, const dep_profile *profile,
 
 /* ---- errors and the step factor ---------------------------------------------------------- */
 
-/* The weighted size of h^2 c M^-1 J1^T d (nq scratch: 2 nq). */
+/* The weighted size of h^2 c G J1^T d (nq scratch: 2 nq). */
 static double position_effect(const double *J1, const double *d, int nc, int nq, double factor,
-                              const dep_mass *mass, const double *scale_q, double *scratch)
+                              const dep_multipliers *mp, const double *scale_q, double *scratch)
 {
     double *column = scratch, *excursion = scratch + nq;
     for (int j = 0; j < nq; ++j) {
@@ -202,7 +209,7 @@ static double position_effect(const double *J1, const double *d, int nc, int nq,
         }
         column[j] = sum;
     }
-    dep_mass_solve(mass, column, excursion);
+    dep_multipliers_apply(mp, column, excursion);
     for (int j = 0; j < nq; ++j) {
         excursion[j] = factor * excursion[j];
     }
@@ -210,7 +217,7 @@ static double position_effect(const double *J1, const double *d, int nc, int nq,
 }
 
 /* err_lam: the position excursion the profile's interpolation error causes inside the step,
-   h^2 integral (1 - s) |e(s)| ds M^-1 J1^T with e(t) = D prod_j (t - t_j), D the divided
+   h^2 integral (1 - s) |e(s)| ds G J1^T (G: the position pass's, M^-1 for DOPRI) with e(t) = D prod_j (t - t_j), D the divided
    difference of the accepted multipliers and lam1 of the order the profile misses (for a
    linear profile: (h^4 / 24) M^-1 J1^T lambda''). Right after a (re)start, with one accepted
    multiplier, from the end values instead: the linear profile's end value that the position
@@ -219,8 +226,8 @@ static double position_effect(const double *J1, const double *d, int nc, int nq,
    *order: its power of h. scratch: nc (n + 1) + 2 nq. */
 double dep_interpolation_error(const dep_profile *profile, const dep_history *history,
                                const double *lam1, const double *lam_position,
-                               const double *J1, const dep_mass *mass, const double *scale_q,
-                               int nq, double *scratch, int *order)
+                               const double *J1, const dep_multipliers *mp,
+                               const double *scale_q, int nq, double *scratch, int *order)
 {
     int nc = history->nc, n = history->count, points = n + 1;
     *order = profile->nodes + 3;
@@ -231,7 +238,7 @@ double dep_interpolation_error(const dep_profile *profile, const dep_history *hi
         for (int i = 0; i < nc; ++i) {
             scratch[i] = lam1[i] - lam_position[i];
         }
-        return position_effect(J1, scratch, nc, nq, profile->h * profile->h / 6.0, mass,
+        return position_effect(J1, scratch, nc, nq, profile->h * profile->h / 6.0, mp,
                                scale_q, scratch + nc);
     }
     double times[DEP_HISTORY + 1], *table = scratch, *column = scratch + (size_t)nc * points;
@@ -251,7 +258,7 @@ double dep_interpolation_error(const dep_profile *profile, const dep_history *hi
         }
     }
     const double *top = table + (size_t)(points - 1) * nc;
-    return position_effect(J1, top, nc, nq, pow(profile->h, *order) * profile->excursion, mass,
+    return position_effect(J1, top, nc, nq, pow(profile->h, *order) * profile->excursion, mp,
                            scale_q, column);
 }
 
@@ -259,13 +266,13 @@ double dep_interpolation_error(const dep_profile *profile, const dep_history *hi
    interpolation (dep_step_errors). */
 static double excess(const dep_step_errors *e, double fac)
 {
-    return e->lam * pow(fac, e->lam_order) + e->ode * pow(fac, ERROR_ORDER) - SAFETY;
+    return e->lam * pow(fac, e->lam_order) + e->ode * pow(fac, e->ode_order) - SAFETY;
 }
 
 static double slope(const dep_step_errors *e, double fac)
 {
     return e->lam_order * e->lam * pow(fac, e->lam_order)
-           + ERROR_ORDER * e->ode * pow(fac, ERROR_ORDER);
+           + e->ode_order * e->ode * pow(fac, e->ode_order);
 }
 
 /* The fac solving excess(fac) = 0 (Newton's method in log fac), within [FAC_MIN, high]. */
@@ -282,7 +289,7 @@ static double integral_factor(const dep_step_errors *e, double high)
         start = fmin(start, pow(SAFETY / e->lam, 1.0 / e->lam_order));
     }
     if (e->ode > 0.0) {
-        start = fmin(start, pow(SAFETY / e->ode, 1.0 / ERROR_ORDER));
+        start = fmin(start, pow(SAFETY / e->ode, 1.0 / e->ode_order));
     }
     double x = log(start);
     for (int k = 0; k < 6; ++k) {
@@ -291,19 +298,27 @@ static double integral_factor(const dep_step_errors *e, double high)
     return exp(x);
 }
 
-/* fac = h_new / h: the factor for which err_lam fac^p + err_ode fac^5 = SAFETY, and after an
+/* fac = h_new / h: the factor for which err_lam fac^p + err_ode fac^r = SAFETY, and after an
    accepted step the proportional-integral correction of Hairer's DOPRI5 (Lund
-   stabilisation), (err^0.75 err_previous)^PI_BETA with err the sum of the errors: it damps
-   the alternation of accepted and rejected steps where the step is bounded by stability
-   rather than accuracy (a stiff friction damper). Clipped to [FAC_MIN, FAC_MAX] (to 1 after
-   a rejection). */
+   stabilisation), (err^0.75 err_previous)^beta with err the sum of the errors: it damps the
+   alternation of accepted and rejected steps where the step is bounded by stability rather
+   than accuracy (a stiff friction damper). beta = PI_BETA with DOPRI; with the Rosenbrock step
+   PI_ORDER_BETA / q, q the errors' effective power of h, which holds the error near the same
+   fraction of tol whichever error leads (PI_BETA held the order-6 multiplier error at a few
+   percent of tol and the step at a tenth of what the tolerance allows). Clipped to
+   [FAC_MIN, FAC_MAX] (to 1 after a rejection). */
 double dep_step_factor(const dep_step_errors *errors, double err_previous, int accepted)
 {
     double high = accepted ? FAC_MAX : 1.0;
     double fac = integral_factor(errors, high);
     if (accepted) {
         double err = fmax(dep_step_error(errors), PI_FLOOR);
-        fac *= pow(pow(err, 0.75) * fmax(err_previous, PI_FLOOR), PI_BETA);
+        double beta = PI_BETA;
+        if (errors->ode_order != 5) { /* the Rosenbrock step: scaled by its effective order */
+            double size = excess(errors, fac) + SAFETY, order = slope(errors, fac) / size;
+            beta = size > 0.0 && order > 0.0 ? PI_ORDER_BETA / order : 0.0;
+        }
+        fac *= pow(pow(err, 0.75) * fmax(err_previous, PI_FLOOR), beta);
     }
     return fmin(fmax(fac, FAC_MIN), high);
 }
@@ -330,7 +345,8 @@ double dep_convergence_factor(const dep_pass_report *report)
 
 /* Hairer-Norsett-Wanner's starting step (Solving ODEs I, II.4). scratch: 3 n. */
 double dep_initial_step(dep_rhs_function rhs, void *context, double t0, const double *y0,
-                        const double *f0, int n, double tol, double span, double *scratch)
+                        const double *f0, int n, int order, double tol, double span,
+                        double *scratch)
 {
     double *scale = scratch, *y1 = scratch + n, *f1 = scratch + 2 * (size_t)n;
     dep_weights(y0, y0, n, tol, scale);
@@ -348,7 +364,7 @@ double dep_initial_step(dep_rhs_function rhs, void *context, double t0, const do
     if (fmax(d1, d2) <= 1e-15) {
         h1 = fmax(1e-6, h0 * 1e-3);
     } else {
-        h1 = pow(0.01 / fmax(d1, d2), 1.0 / ERROR_ORDER);
+        h1 = pow(0.01 / fmax(d1, d2), 1.0 / order);
     }
     return fmin(fmin(100 * h0, h1), span);
 }

@@ -64,7 +64,14 @@ typedef struct dep_settings {
        keeps its parameter slots: u(t) = p[slot] + p[slot + 1] t. */
     const dep_input_table *tables;
     int n_tables;
+    /* The ODE method under the multiplier iteration (docs/method.md, 10): DEP_STEPPING_AUTO
+       (0) DOPRI 5(4), and for a model with beams the linearly implicit step once a stiff mode
+       holds DOPRI's step at its stability bound; DEP_STEPPING_EXPLICIT (1) DOPRI throughout;
+       DEP_STEPPING_IMPLICIT (2) the linearly implicit step throughout (a model with beams). */
+    int stepping;
 } dep_settings;
+
+enum dep_stepping { DEP_STEPPING_AUTO = 0, DEP_STEPPING_EXPLICIT = 1, DEP_STEPPING_IMPLICIT = 2 };
 
 #define DEP_MAX_STEPS 1e6 /* the default of dep_settings.max_steps */
 
@@ -163,6 +170,9 @@ typedef struct dep_stats {
     double max_v_pos, max_v_vel, max_v_acc;
     double min_step, max_step;
     long long events;
+    /* The time from which a stiff mode (of rate stiff_rate, 1/s) made the run take the
+       linearly implicit step (docs/method.md, 10); nan for a run that never did. */
+    double implicit_from, stiff_rate;
 } dep_stats;
 
 /* One entry of an event record's data (Python's EventRecord.data): `key` -> a number, a

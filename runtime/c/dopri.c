@@ -66,6 +66,8 @@ void dep_dopri_step(dep_rk_step *rk, dep_rhs_function rhs, void *context, double
 {
     int n = rk->n;
     double *K = rk->K;
+    rk->method = DEP_DOPRI;
+    rk->order = 5;
     rk->t0 = t0;
     rk->h = h;
     rk->y0 = y0;
@@ -96,12 +98,21 @@ void dep_dopri_step(dep_rk_step *rk, dep_rhs_function rhs, void *context, double
     }
 }
 
-/* Components first..first+count-1 of the continuous extension y(t) of the step
-   (DenseStep, 4th order). */
+/* Components first..first+count-1 of the continuous extension y(t) of the step: DOPRI's
+   (DenseStep, 4th order), or the cubic Hermite interpolant of a Rosenbrock step's ends. */
 void dep_dense_components(const dep_rk_step *rk, double t, int first, int count, double *out)
 {
     int n = rk->n;
     double x = (t - rk->t0) / rk->h;
+    if (rk->method == DEP_ROSENBROCK) {
+        double h00 = (1 + 2 * x) * (1 - x) * (1 - x), h10 = x * (1 - x) * (1 - x);
+        double h01 = x * x * (3 - 2 * x), h11 = x * x * (x - 1);
+        for (int j = first; j < first + count; ++j) {
+            out[j - first] = h00 * rk->y0[j] + h01 * rk->y1[j]
+                             + rk->h * (h10 * rk->K[j] + h11 * rk->K[6 * (size_t)n + j]);
+        }
+        return;
+    }
     double powers[4] = {x, x * x, pow(x, 3), pow(x, 4)};
     for (int j = first; j < first + count; ++j) {
         double sum = 0.0;

@@ -215,6 +215,16 @@ int dep_check_settings(const dep_model *model, const double *p, const dep_settin
                  "the default, %.0f), got %s", DEP_MAX_STEPS, number);
         return dep_plain_error(error, DEP_SETTINGS_ERROR, message);
     }
+    if (settings->stepping < DEP_STEPPING_AUTO || settings->stepping > DEP_STEPPING_IMPLICIT) {
+        snprintf(message, sizeof message, "stepping must be auto (0), explicit (1) or implicit "
+                 "(2), got %d", settings->stepping);
+        return dep_plain_error(error, DEP_SETTINGS_ERROR, message);
+    }
+    if (settings->stepping == DEP_STEPPING_IMPLICIT && model->nkz == 0) {
+        return dep_plain_error(error, DEP_SETTINGS_ERROR, "stepping implicit needs stiff "
+                               "forces with a Jacobian (a model with beams); this model has "
+                               "none");
+    }
     for (int k = 0; k < settings->n_tables && !open; ++k) {
         int status = check_table(model, &settings->tables[k], error);
         if (status != DEP_OK) {

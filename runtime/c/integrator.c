@@ -23,6 +23,7 @@
 #define STIFF_BOUND 2.0 /* h |lambda| this near DOPRI5's stability bound (3.3 on the real
                            axis): where the PI controller holds a stiff run's step */
 #define STIFF_STEPS 15   /* accepted steps at the bound, with fewer than 6 free in between */
+#define STIFF_OMEGA_H 0.5 /* h omega_max above this: DOPRI's step is bound by stability */
 #define GRIND_FACTOR 100 /* a run whose steps would pass max_steps that many times over... */
 #define GRIND_STEPS 1000 /* ...for that many steps in a row stops */
 #define CAP_RELAX 1.2
@@ -33,6 +34,11 @@
 int dep_run_pass_error(dep_run *run, const dep_failure *failure, double t)
 {
     char joint[DEP_NAME_MAX + 8], what[400], hint[400];
+    if (failure->row < 0) { /* not a constraint row: the step itself */
+        return dep_solver_error(run->error, 1, t, dep_stage_names[failure->stage], NULL, NULL,
+                                0, 0.0, failure->reason, "the state may no longer be finite; "
+                                "check the beams' properties, or try a tighter tol");
+    }
     dep_cs_describe(&run->cs, failure->row, joint, sizeof joint);
     if (failure->residual <= 1e3 * DEP_EPS * fmax(1.0, failure->scale)) {
         snprintf(hint, sizeof hint, "the residual is at the level of round-off: tol is tighter "
@@ -134,30 +140,38 @@ static double first_step(dep_run *run)
     memcpy(run->y + 2 * nq, s->work, (size_t)run->nd * sizeof(double));
     dep_stepper_derivative(&run->stepper, s, run->dy);
     return dep_initial_step(dep_stepper_rhs, &run->stepper, s->t, run->y, run->dy, run->ny,
-                            run->settings.tol, run->t_stop - s->t, run->scratch);
+                            run->stepper.implicit ? 3 : 5, run->settings.tol,
+                            run->t_stop - s->t, run->scratch);
 }
 
-/* The DOPRI error estimate less what the passes remove: its position and velocity parts
-   projected M-orthogonally onto the tangent space of the constraints at the step end,
-   e - M^-1 J^T S^-1 J e (docs/method.md, 4). Into run->tangent. */
+/* The ODE method's error estimate less what the passes remove: its position and velocity
+   parts projected onto the tangent space of the constraints at the step end along what the
+   pass's correction moves, e - G J^T S^-1 J e with S = J G J^T (G = M^-1 for DOPRI, the
+   M-orthogonal projection; the Rosenbrock step's responses otherwise; docs/method.md, 4).
+   Into run->tangent. */
 static void tangential_error(dep_run *run, const dep_outcome *outcome)
 {
     const dep_rk_step *rk = outcome->rk;
-    int nq = run->nq, nc = run->cs.nc;
+    dep_stepper *stepper = &run->stepper;
+    int nq = run->nq, nc = run->cs.nc, solved_all = 1;
     double *Je = run->normal, *mu = Je + nc, *column = mu + nc, *solved = column + nq;
     memcpy(run->tangent, rk->error, (size_t)run->ny * sizeof *run->tangent);
-    for (int half = 0; half < 2 && nc > 0; ++half) {
+    for (int half = 0; half < 2 && nc > 0 && solved_all; ++half) {
         double *e = run->tangent + (size_t)half * (size_t)nq;
+        dep_stepper_use_mobility(stepper, half == 0 ? DEP_POSITION : DEP_VELOCITY);
         dep_cs_times(&run->cs, outcome->J1, e, Je);
-        if (!dep_schur_solve(&run->stepper.mp, outcome->J1, outcome->J1_id, nc, Je, mu)) {
-            memcpy(run->tangent, rk->error, (size_t)run->ny * sizeof *run->tangent);
-            return; /* a singular S: measure the whole error */
+        solved_all = dep_schur_solve(&stepper->mp, outcome->J1, outcome->J1_id, nc, Je, mu);
+        if (solved_all) {
+            dep_cs_transpose_times(&run->cs, outcome->J1, mu, column);
+            dep_multipliers_apply(&stepper->mp, column, solved);
+            for (int j = 0; j < nq; ++j) {
+                e[j] -= solved[j];
+            }
         }
-        dep_cs_transpose_times(&run->cs, outcome->J1, mu, column);
-        dep_mass_solve(&run->system.mass, column, solved);
-        for (int j = 0; j < nq; ++j) {
-            e[j] -= solved[j];
-        }
+    }
+    dep_stepper_use_mobility(stepper, DEP_ACCELERATION);
+    if (!solved_all) { /* a singular S: measure the whole error */
+        memcpy(run->tangent, rk->error, (size_t)run->ny * sizeof *run->tangent);
     }
 }
 
@@ -169,11 +183,23 @@ static void step_errors(dep_run *run, const dep_outcome *outcome, dep_step_error
     int nq = run->nq;
     dep_weights(rk->y0, rk->y1, run->ny, run->settings.tol, scale);
     tangential_error(run, outcome);
-    e->ode = dep_rms(run->tangent, scale, run->ny);
+    if (rk->method == DEP_ROSENBROCK) {
+        /* positions and work: a velocity error shows in the positions a step later, and
+           would otherwise hold the step to the period of a beam mode whose displacement is
+           far below tol (docs/method.md, 10) */
+        double pos = dep_rms(run->tangent, scale, nq), work = dep_rms(run->tangent + 2 * nq,
+                                                                    scale + 2 * nq, run->nd);
+        e->ode = sqrt((pos * pos * nq + work * work * run->nd) / (nq + run->nd));
+    } else {
+        e->ode = dep_rms(run->tangent, scale, run->ny);
+    }
+    e->ode_order = rk->order;
+    dep_stepper_use_mobility(&run->stepper, DEP_POSITION);
     e->lam = dep_interpolation_error(&outcome->profile, &run->history, outcome->state.lam,
-                                     outcome->lam_position, outcome->J1, &run->system.mass,
+                                     outcome->lam_position, outcome->J1, &run->stepper.mp,
                                      scale, nq, scratch, &e->lam_order)
              * sqrt((double)nq / run->ny);
+    dep_stepper_use_mobility(&run->stepper, DEP_ACCELERATION);
     if (!isfinite(e->ode + e->lam)) {
         e->ode = INFINITY;
         e->lam = 0.0;
@@ -195,10 +221,12 @@ static const char *moving_most(const dep_run *run, const double *qd)
     return run->model->coordinate_names[best];
 }
 
-/* After an accepted step of size h: a run stops rather than grind when its steps would pass
-   max_steps. At once when a stiff mode holds the step at DOPRI's stability bound (Hairer's
-   test, STIFF_STEPS steps with h |lambda| > STIFF_BOUND) and the steps left at this size would
-   pass the limit; when the steps left at this size would pass it GRIND_FACTOR times over for
+/* After an accepted step of size h: a model with beams whose step a stiff mode holds at
+   DOPRI's stability bound (Hairer's test, STIFF_STEPS steps with h |lambda| > STIFF_BOUND)
+   goes on with the linearly implicit step (rosenbrock.c, docs/method.md, 10). Otherwise a run
+   stops rather than grind when its steps would pass max_steps: at once when a stiff mode
+   holds the step at the stability bound and the steps left at this size would pass the
+   limit; when the steps left at this size would pass it GRIND_FACTOR times over for
    GRIND_STEPS steps in a row; and when the limit is reached. */
 static int step_budget(dep_run *run, double h)
 {
@@ -213,6 +241,22 @@ static int step_budget(dep_run *run, double h)
         run->free_steps = 0;
     } else if (++run->free_steps >= 6) {
         run->stiff_steps = 0;
+    }
+    if (run->settings.stepping == DEP_STEPPING_AUTO && run->model->nkz > 0
+        && !run->stepper.implicit) {
+        /* the stiff forces have a Jacobian: the linearly implicit step from here on once
+           their fastest mode (omega_max, a lower bound by power iteration) or Hairer's test
+           says the explicit step is at its stability bound */
+        if (run->omega_max == 0.0) {
+            run->omega_max = dep_implicit_fastest(&run->stepper.im, s->q);
+        }
+        run->bound_steps = h * run->omega_max > STIFF_OMEGA_H ? run->bound_steps + 1 : 0;
+        if (run->stiff_steps >= STIFF_STEPS || run->bound_steps >= STIFF_STEPS) {
+            run->stepper.implicit = 1;
+            run->implicit_from = s->t;
+            run->stiff_rate = fmax(rk->stiffness / h, run->omega_max);
+            run->stiff_steps = 0;
+        }
     }
     run->grind_steps = taken + left > GRIND_FACTOR * limit ? run->grind_steps + 1 : 0;
     int stiff = run->stiff_steps >= STIFF_STEPS && taken + left > limit;
@@ -313,7 +357,7 @@ static int advance(dep_run *run, double *h)
 dep_settings dep_default_settings(const dep_model *model)
 {
     dep_settings settings = {model->t_end, model->dt_out, model->tol, 1, NULL, NULL, 0.0,
-                             NULL, 0};
+                             NULL, 0, DEP_STEPPING_AUTO};
     return settings;
 }
 
@@ -371,6 +415,9 @@ static int setup(dep_run *run, const double *params, const dep_event *events, in
         return status;
     }
     run->n_user_events = n_events;
+    if (run->settings.stepping == DEP_STEPPING_IMPLICIT) {
+        run->implicit_from = 0.0;
+    }
     if (dep_constraints_init(&run->cs, &run->system, arena) != DEP_OK
         || dep_stepper_init(&run->stepper, &run->system, &run->cs, run->settings.tol, arena)
         || dep_history_init(&run->history, run->cs.capacity, arena)
@@ -383,6 +430,7 @@ static int setup(dep_run *run, const double *params, const dep_event *events, in
         || dep_change_init(&run->change, m->nq, m->nh, arena)) {
         return dep_plain_error(run->error, DEP_MEMORY_ERROR, "out of memory");
     }
+    run->stepper.implicit = run->settings.stepping == DEP_STEPPING_IMPLICIT;
     status = run->recording ? dep_recorder_init(&run->recorder, &run->system, &run->settings,
                                                 run->cs.capacity, arena) : DEP_OK;
     if (status == DEP_SETTINGS_ERROR) {
@@ -614,6 +662,8 @@ static int finish(dep_run *run, dep_result *result)
     result->dt_out = run->settings.dt_out;
     result->stats = dep_tally_stats(&run->tally, run->stepper.integrations,
                                     run->stepper.rhs_evaluations);
+    result->stats.implicit_from = run->implicit_from;
+    result->stats.stiff_rate = run->stiff_rate;
     if (dep_summarize(run->model, &run->system, &run->loads, result) != DEP_OK) {
         dep_result_free(result);
         return dep_plain_error(run->error, DEP_MEMORY_ERROR, "out of memory");
@@ -648,6 +698,8 @@ static dep_run *new_run(const dep_model *model, const double *params,
                                                                           : 1.0);
     run->h_cap = INFINITY;
     run->err_previous = 1.0;
+    run->implicit_from = run->stiff_rate = NAN;
+    run->omega_max = 0.0;
     dep_tally_init(&run->tally);
     if (setup(run, params, events, n_events) != DEP_OK) {
         dep_close(run);

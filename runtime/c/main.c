@@ -1,6 +1,7 @@
 /* main.c: the standalone program of a C target folder (docs/c-target.md).
  *
  *     ./MODEL [--set NAME=VALUE]... [--t-end T] [--dt-out DT] [--tol TOL] [--max-steps N]
+ *             [--stepping auto|explicit|implicit]
  *             [-o out.csv]
  *     ./MODEL --list          parameters, their SI units and defaults
  *
@@ -39,7 +40,7 @@ static int usage_error(const char *format, const char *a, const char *b)
 static void print_help(void)
 {
     printf("usage: %s [--set NAME=VALUE]... [--t-end T] [--dt-out DT] [--tol TOL]\n"
-           "       [--max-steps N] [-o CSV]\n"
+           "       [--max-steps N] [--stepping auto|explicit|implicit] [-o CSV]\n"
            "       %s --list\n\n"
            "Simulate %s (%s) with the depsim C integrator.\n\n"
            "  --set NAME=VALUE  set a parameter, a plain number in SI units (no unit text);\n"
@@ -49,6 +50,9 @@ static void print_help(void)
            "  --tol TOL         integration tolerance (default %.17g)\n"
            "  --max-steps N     the most steps a run may take (default %.0f); a stiff run\n"
            "                    that would need more stops at once\n"
+           "  --stepping S      the ODE method: auto (default: explicit, linearly implicit\n"
+           "                    once a beam's stiff modes bound the explicit step),\n"
+           "                    explicit or implicit (docs/method.md, 10)\n"
            "  -o, --out CSV     write the outputs to CSV (else to stdout)\n"
            "  --list            list the parameters and exit\n\n"
            "Exit codes: 0 ok, 1 failed to write or out of memory, 2 usage error, 3 solver "
@@ -162,6 +166,19 @@ static int positive(const char *option, const char *text, double *value)
     return EXIT_OK;
 }
 
+static int stepping(const char *text, int *value)
+{
+    static const char *const names[] = {"auto", "explicit", "implicit"}; /* enum dep_stepping */
+    for (int k = 0; k < 3; ++k) {
+        if (strcmp(text, names[k]) == 0) {
+            *value = k;
+            return EXIT_OK;
+        }
+    }
+    return usage_error("argument --stepping: '%s' is not one of auto, explicit, implicit%s",
+                       text, "");
+}
+
 /* The value of option `name` at argv[*i] ("--name VALUE" or "--name=VALUE"), or NULL. */
 static const char *option_value(int argc, char **argv, int *i, const char *name, int *missing)
 {
@@ -202,6 +219,8 @@ static int parse_arguments(int argc, char **argv, options *o)
             status = positive("--tol", value, &o->settings.tol);
         } else if ((value = option_value(argc, argv, &i, "--max-steps", &missing)) != NULL) {
             status = positive("--max-steps", value, &o->settings.max_steps);
+        } else if ((value = option_value(argc, argv, &i, "--stepping", &missing)) != NULL) {
+            status = stepping(value, &o->settings.stepping);
         } else if ((value = option_value(argc, argv, &i, "--out", &missing)) != NULL
                    || (value = option_value(argc, argv, &i, "-o", &missing)) != NULL) {
             o->out = value;

@@ -63,11 +63,17 @@ int dep_check_consistency(dep_constraints *cs, double t, const double *q, const 
 
 typedef void (*dep_rhs_function)(void *context, double t, const double *y, double *dy);
 
+enum dep_ode_method { DEP_DOPRI, DEP_ROSENBROCK };
+
 typedef struct dep_rk_step {
     int n;
+    int method;        /* enum dep_ode_method: which method took the step */
+    int order;         /* the power of h of its error estimate */
     double t0, h;
     const double *y0;
-    double *y1, *error, *K; /* n, n, 7 x n */
+    /* n, n, 7 x n: DOPRI's stages; a Rosenbrock step keeps y' at its start and end in rows 0
+       and 6 (its dense output is the cubic Hermite interpolant) */
+    double *y1, *error, *K;
     /* Hairer's stiffness indicator h |lambda| ~ h |K7 - K6| / |y1 - y6| (it nears 3.3, the
        stability bound, where a stiff mode holds the step down) and y1 - y6, that mode's
        direction (n). */
@@ -85,6 +91,51 @@ void dep_interpolant_prior(double *data, int nq, double h, double h_prior, const
                            const double *qdd);
 void dep_interpolate(const double *data, double t0, double h, int nq, double t, double *q,
                      double *qd);
+
+/* ---- rosenbrock.c: the linearly implicit step for stiff elastic forces ---------------- */
+
+/* g = (qd, f - Phi_q^T lambda(t), work rates) at y = (q, qd, work): the motion's right side
+   before the mass matrix. */
+typedef void (*dep_force_function)(void *context, double t, const double *y, double *g);
+
+/* ROS34PW2 (Rang & Angermann 2005), a W-method of order 3 for any Jacobian, applied to
+   y = (q, qd, work) with the Jacobian [[0, I, 0], [-M^-1 K, -M^-1 D, 0], 0] of the stiff
+   forces' K and D (the model's `stiffness`: beams, hinge springs and dampers, cables): each
+   stage solves with
+   W = M + gamma h D + gamma^2 h^2 K, factorised once per step in envelope form. */
+typedef struct dep_implicit {
+    const dep_system *system;
+    int nq, ny, nkz, damped;
+    double *K, *D;          /* nkz, at the step's start */
+    int *lower;             /* nkz: where entry k sits in W's envelope, -1 above the diagonal */
+    double *mass_envelope;  /* M in W's envelope */
+    dep_envelope W;
+    double h;
+    long long id;           /* changes with every factorisation */
+    double *g0;             /* ny: g at the step's start (stage 1 of every integration) */
+    double *k, *arg, *g, *rhs; /* 4 ny, ny, ny, nq */
+    /* scratch for up to DEP_RESPONSE_BLOCK vectors at once: sum 2 nq (at least ny), rhs and
+       product nq, dk 4 x 2 nq (the stages of dep_implicit_response) */
+    double *sum, *block_rhs, *product, *dk;
+    double *block_x, *block_dq, *block_dqd; /* a caller's block: nq x DEP_RESPONSE_BLOCK each */
+} dep_implicit;
+
+#define DEP_RESPONSE_BLOCK 8
+
+int dep_implicit_init(dep_implicit *im, const dep_system *system, int ny, dep_arena *arena);
+/* K and D at q, W for step h factorised; 0 when W is not positive definite. */
+int dep_implicit_prepare(dep_implicit *im, const double *q, double h);
+/* One step from (t0, y0), g0 = g(t0, y0) already in im->g0; four evaluations of g less one. */
+void dep_rosenbrock_step(dep_implicit *im, dep_rk_step *rk, dep_force_function g,
+                         void *context, double t0, const double *y0, double h);
+/* The step end's linear response (dq, dqd) to adding x weight(t) to Phi_q^T lambda, weight
+   given at the four stage times (dep_rosenbrock_times), for count <= DEP_RESPONSE_BLOCK
+   vectors x at once (nq x count, entry j of vector v at [j count + v]; dq, dqd alike). */
+void dep_implicit_response(dep_implicit *im, int count, const double *x,
+                           const double weight[4], double *dq, double *dqd);
+void dep_rosenbrock_times(double t0, double h, double times[4]);
+/* sqrt of the largest eigenvalue of M^-1 K at q (rad/s), from below (power iteration). */
+double dep_implicit_fastest(dep_implicit *im, const double *q);
 
 /* ---- multipliers.c: the iteration (6) with conjugate gradients on S = J M^-1 J^T -------- */
 
@@ -118,13 +169,22 @@ typedef struct dep_measurement {
 
 typedef void (*dep_measure_function)(void *context, const double *lam, dep_measurement *out);
 
+typedef void (*dep_mobility_function)(void *context, const double *x, double *out);
+
 typedef struct dep_multipliers { /* scratch of the iteration and its Schur-complement cache */
     int nq, capacity;
     const dep_mass *mass;
+    /* What a level sees of a generalized force x: M^-1 x, or mobility(context, x, out) when
+       set (the linearly implicit step's response), identified by mobility_id (> 0) in the
+       Schur cache key. */
+    dep_mobility_function mobility;
+    void *mobility_context;
+    long long mobility_id, schur_mobility;
     long long schur_id, factorizations;
     int schur_nc, schur_explicit, schur_factored;
     int schur_envelope;        /* 1: S and L held in envelope form (a diagonal mass matrix) */
     int *first, *offset;       /* capacity: row a of S spans columns first[a]..a, from offset[a] */
+    dep_envelope envelope;     /* that form: first, offset, S and L */
     int *column_start, *column_rows; /* nq + 1, capacity * nq: the rows touching each column */
     double *S, *L, *diag, *MinvJT, *column;
     double *x, *r, *z, *d, *Sd, *inv_diag, *step, *trial_lam, *work;
@@ -134,6 +194,10 @@ int dep_multipliers_init(dep_multipliers *mp, const dep_mass *mass, int nq, int 
                          dep_arena *arena);
 int dep_measurement_init(dep_measurement *m, int nq, int capacity, int ny, int own_jacobian,
                          dep_arena *arena);
+/* S = J G J^T with G = mobility (NULL: M^-1) for the iterations that follow. */
+void dep_multipliers_set_mobility(dep_multipliers *mp, dep_mobility_function mobility,
+                                  void *context, long long id);
+void dep_multipliers_apply(const dep_multipliers *mp, const double *x, double *out); /* G x */
 int dep_iterate_multipliers(dep_multipliers *mp, int stage, double *lam, int nc,
                             dep_measure_function measure, void *context, double C, double tol,
                             dep_measurement *slots[2], dep_measurement **final,
@@ -180,16 +244,18 @@ void dep_profile_set(dep_profile *profile, const dep_history *history, double h)
 void dep_profile_hold(dep_profile *profile, double t0, const double *lam);
 void dep_profile_value(const dep_profile *profile, const double *lam_end, double t, int nc,
                        double *out);
+double dep_profile_end_weight(const dep_profile *profile, double t); /* l(u) of the end value */
 void dep_history_predict(const dep_history *history, const dep_profile *profile, double *out);
 void dep_weights(const double *y0, const double *y1, int n, double tol, double *scale);
 double dep_rms(const double *x, const double *scale, int n);
 double dep_interpolation_error(const dep_profile *profile, const dep_history *history,
                                const double *lam1, const double *lam_position,
-                               const double *J1, const dep_mass *mass, const double *scale_q,
-                               int nq, double *scratch, int *order);
+                               const double *J1, const dep_multipliers *mp,
+                               const double *scale_q, int nq, double *scratch, int *order);
 /* A step's errors in tolerance units (1: at tolerance), controller.c. */
 typedef struct dep_step_errors {
-    double ode;       /* the ODE method's (DOPRI 5(4)), tangential part */
+    double ode;       /* the ODE method's (DOPRI 5(4) or ROS34PW2), tangential part */
+    int ode_order;    /* its power of h */
     double lam;       /* the multipliers' interpolation */
     int lam_order;    /* its power of h */
 } dep_step_errors;
@@ -198,7 +264,8 @@ double dep_step_error(const dep_step_errors *errors);
 double dep_step_factor(const dep_step_errors *errors, double err_previous, int accepted);
 double dep_convergence_factor(const dep_pass_report *report);
 double dep_initial_step(dep_rhs_function rhs, void *context, double t0, const double *y0,
-                        const double *f0, int n, double tol, double span, double *scratch);
+                        const double *f0, int n, int order, double tol, double span,
+                        double *scratch);
 
 /* ---- stepper.c: one step of the method, and pass 3 alone --------------------------------- */
 
@@ -254,6 +321,16 @@ typedef struct dep_stepper {
     int base_valid, integrations_this_step;
     double *restart_J;
     dep_acceleration_work accel;
+    /* The linearly implicit step (models with beams), and its response's scratch */
+    int implicit;
+    dep_implicit im;
+    long long mobility_ids;
+    double *dq, *dqd, *column;
+    /* The step's response to a unit force on each coordinate the active rows touch:
+       slot[j] (-1: untouched), columns + 2 nq slot[j] = (dq, dqd); weight: l(u) at the
+       stage times */
+    int *slot, n_slots;
+    double *columns, weight[4];
 } dep_stepper;
 
 double dep_constraint_tolerance(double tol);
@@ -271,6 +348,8 @@ int dep_acceleration(dep_stepper *stepper, const double *q, const double *qd, do
                      dep_pass_report *report, dep_failure *failure);
 
 
+/* The multipliers' G of the last step's pass (DEP_POSITION, DEP_VELOCITY), M^-1 otherwise. */
+void dep_stepper_use_mobility(dep_stepper *stepper, int stage);
 int dep_step(dep_stepper *stepper, const dep_state *state, const dep_profile *profile,
              const double *lam_predicted, dep_outcome *outcome, dep_failure *failure);
 

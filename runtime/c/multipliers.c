@@ -40,6 +40,7 @@ int dep_multipliers_init(dep_multipliers *mp, const dep_mass *mass, int nq, int 
     mp->MinvJT = dep_doubles(arena, nc * (size_t)nq);
     mp->first = dep_bytes(arena, nc * sizeof *mp->first);
     mp->offset = dep_bytes(arena, (nc + 1) * sizeof *mp->offset);
+    mp->envelope = (dep_envelope){0, mp->first, mp->offset, mp->S, mp->L};
     mp->column_start = dep_bytes(arena, ((size_t)nq + 1) * sizeof *mp->column_start);
     mp->column_rows = dep_bytes(arena, nc * (size_t)nq * sizeof *mp->column_rows);
     mp->column = dep_doubles(arena, (size_t)nq);
@@ -50,6 +51,23 @@ int dep_multipliers_init(dep_multipliers *mp, const dep_mass *mass, int nq, int 
         *vectors[i] = dep_doubles(arena, nc);
     }
     return arena->failed ? DEP_MEMORY_ERROR : DEP_OK;
+}
+
+void dep_multipliers_set_mobility(dep_multipliers *mp, dep_mobility_function mobility,
+                                  void *context, long long id)
+{
+    mp->mobility = mobility;
+    mp->mobility_context = context;
+    mp->mobility_id = mobility != NULL ? id : 0;
+}
+
+void dep_multipliers_apply(const dep_multipliers *mp, const double *x, double *out)
+{
+    if (mp->mobility != NULL) {
+        mp->mobility(mp->mobility_context, x, out);
+    } else {
+        dep_mass_solve(mp->mass, x, out);
+    }
 }
 
 int dep_measurement_init(dep_measurement *m, int nq, int capacity, int ny, int own_jacobian,
@@ -140,7 +158,7 @@ static int factor_schur(dep_multipliers *mp, int nc)
 /* ---- S in envelope form (a diagonal mass matrix) -------------------------------------- */
 
 /* S_ab of the envelope (b in first[a]..a). */
-#define ENVELOPE(mp, M, a, b) ((M)[(mp)->offset[a] + (b) - (mp)->first[a]])
+#define ENVELOPE(mp, M, a, b) DEP_ENVELOPE_AT(&(mp)->envelope, M, a, b)
 
 /* Forms S from the non-zeros of J: the rows touching each coordinate, each row's envelope
    from the first row it shares a coordinate with, then S_ab += J_aj J_bj / M_jj. */
@@ -177,6 +195,7 @@ static void envelope_schur(dep_multipliers *mp, const double *J, int nc)
             first[a] = lowest < first[a] ? lowest : first[a];
         }
     }
+    mp->envelope.n = nc; /* S and its factor in mp->S and mp->L */
     mp->offset[0] = 0;
     for (int a = 0; a < nc; ++a) {
         mp->offset[a + 1] = mp->offset[a] + a - first[a] + 1;
@@ -197,84 +216,28 @@ static void envelope_schur(dep_multipliers *mp, const double *J, int nc)
     }
 }
 
-/* The Cholesky factor of the envelope S in the same envelope (no fill outside it); 0 when S
-   is not positive definite to working precision. */
-static int envelope_factor(dep_multipliers *mp, int nc)
-{
-    double largest = 0.0;
-    for (int a = 0; a < nc; ++a) {
-        largest = fmax(largest, mp->diag[a]);
-    }
-    for (int i = 0; i < nc; ++i) {
-        for (int j = mp->first[i]; j <= i; ++j) {
-            int from = mp->first[i] > mp->first[j] ? mp->first[i] : mp->first[j];
-            double sum = ENVELOPE(mp, mp->S, i, j);
-            for (int k = from; k < j; ++k) {
-                sum -= ENVELOPE(mp, mp->L, i, k) * ENVELOPE(mp, mp->L, j, k);
-            }
-            if (j < i) {
-                ENVELOPE(mp, mp->L, i, j) = sum / ENVELOPE(mp, mp->L, j, j);
-            } else if (!(sum > 1e-12 * largest)) {
-                return 0;
-            } else {
-                ENVELOPE(mp, mp->L, i, i) = sqrt(sum);
-            }
-        }
-    }
-    mp->factorizations++;
-    return 1;
-}
-
-static void envelope_solve(const dep_multipliers *mp, int n, const double *b, double *x)
-{
-    for (int i = 0; i < n; ++i) { /* L y = b */
-        double sum = b[i];
-        for (int k = mp->first[i]; k < i; ++k) {
-            sum -= ENVELOPE(mp, mp->L, i, k) * x[k];
-        }
-        x[i] = sum / ENVELOPE(mp, mp->L, i, i);
-    }
-    for (int i = n - 1; i >= 0; --i) { /* L^T x = y, column by column */
-        x[i] /= ENVELOPE(mp, mp->L, i, i);
-        for (int k = mp->first[i]; k < i; ++k) {
-            x[k] -= ENVELOPE(mp, mp->L, i, k) * x[i];
-        }
-    }
-}
-
-static void envelope_apply(const dep_multipliers *mp, int n, const double *x, double *out)
-{
-    memset(out, 0, (size_t)n * sizeof *out);
-    for (int i = 0; i < n; ++i) {
-        for (int j = mp->first[i]; j < i; ++j) {
-            double s = ENVELOPE(mp, mp->S, i, j);
-            out[i] += s * x[j];
-            out[j] += s * x[i];
-        }
-        out[i] += ENVELOPE(mp, mp->S, i, i) * x[i];
-    }
-}
-
 /* ---- S, its factor and its solves -------------------------------------------------------- */
 
 static void schur_for(dep_multipliers *mp, const double *J, long long id, int nc)
 {
     int nq = mp->nq;
-    if (mp->schur_id == id && mp->schur_nc == nc) {
+    if (mp->schur_id == id && mp->schur_nc == nc && mp->schur_mobility == mp->mobility_id) {
         return;
     }
     mp->schur_id = id;
     mp->schur_nc = nc;
-    mp->schur_envelope = mp->mass->inverse_diagonal != NULL;
+    mp->schur_mobility = mp->mobility_id;
+    mp->schur_envelope = mp->mass->inverse_diagonal != NULL && mp->mobility == NULL;
     if (mp->schur_envelope) {
         envelope_schur(mp, J, nc);
         mp->schur_explicit = 1;
-        mp->schur_factored = envelope_factor(mp, nc);
+        mp->schur_factored = dep_envelope_factor(&mp->envelope);
+        mp->factorizations += mp->schur_factored;
         return;
     }
     mp->schur_explicit = nc < EXPLICIT_BELOW;
     for (int b = 0; b < nc; ++b) { /* row b of (M^-1 J^T)^T */
-        dep_mass_solve(mp->mass, J + (size_t)b * (size_t)nq, mp->MinvJT + (size_t)b * (size_t)nq);
+        dep_multipliers_apply(mp, J + (size_t)b * (size_t)nq, mp->MinvJT + (size_t)b * (size_t)nq);
     }
     for (int a = 0; a < nc; ++a) {
         const double *Ja = J + (size_t)a * (size_t)nq;
@@ -300,7 +263,7 @@ static int solve_schur(dep_multipliers *mp, const double *J, int n, const double
 {
     if (mp->schur_factored) {
         if (mp->schur_envelope) {
-            envelope_solve(mp, n, b, mp->x);
+            dep_envelope_solve(&mp->envelope, b, mp->x);
         } else {
             dep_cholesky_solve(mp->L, n, b, mp->x);
         }
@@ -325,7 +288,7 @@ static void schur_apply(dep_multipliers *mp, const double *J, int nc, const doub
 {
     int nq = mp->nq;
     if (mp->schur_envelope) {
-        envelope_apply(mp, nc, x, out);
+        dep_envelope_times(&mp->envelope, mp->S, x, out);
         return;
     }
     if (mp->schur_explicit) {
@@ -340,7 +303,7 @@ static void schur_apply(dep_multipliers *mp, const double *J, int nc, const doub
             mp->column[j] += J[a * nq + j] * x[a];
         }
     }
-    dep_mass_solve(mp->mass, mp->column, mp->work);
+    dep_multipliers_apply(mp, mp->column, mp->work);
     for (int a = 0; a < nc; ++a) {
         out[a] = dot(J + (size_t)a * (size_t)nq, mp->work, nq);
     }
@@ -501,7 +464,7 @@ static void measure_projection(void *context, const double *mu, dep_measurement 
             column[j] += pr->J[a * nq + j] * mu[a];
         }
     }
-    dep_mass_solve(pr->mp->mass, column, solved);
+    dep_multipliers_apply(pr->mp, column, solved);
     for (int j = 0; j < nq; ++j) {
         out->x[j] = pr->qd[j] - solved[j];
     }

@@ -53,6 +53,9 @@ struct dep_run { /* typedef in depsim.h */
     double *tangent, *normal; /* ny, 2 capacity + 2 nq: the step error's tangential part */
     double err_previous;      /* the last accepted step's error (the PI step control) */
     int stiff_steps, free_steps, grind_steps; /* step_budget's counts */
+    double implicit_from, stiff_rate; /* when the linearly implicit step took over, and why */
+    double omega_max;                 /* the stiff forces' fastest mode (rad/s), 0: unknown */
+    int bound_steps;                  /* accepted steps in a row with h omega_max > bound */
     dep_active_rows state_rows, dense_rows;
     dep_event_record *records;
     int n_records, records_capacity;

@@ -2,15 +2,24 @@
  * (controller.c: the polynomial through the last accepted multipliers and the unknown end
  * value lambda_{i+1}) and three passes of the iteration (6) (docs/method.md, 2):
  *
- *   1. position:     re-integrate (DOPRI 5(4)) until v_pos(q_{i+1}) is small,
+ *   1. position:     re-integrate until v_pos(q_{i+1}) is small,
  *                    C = h^2 integral (1 - u) l(u) du (h^2/6 for a linear profile)
- *   2. velocity:     apply the frozen-Phi_q effect -h integral l(u) du M^-1 Phi_q^T d(lambda)
- *                    on qd_{i+1} until v_vel is small
+ *   2. velocity:     apply the frozen-Phi_q effect of d(lambda) on qd_{i+1} until v_vel is
+ *                    small
  *   3. acceleration: qdd_{i+1} and lambda_{i+1} from (1) and (2c), C = 1
+ *
+ * The ODE method is DOPRI 5(4) until, in a model with beams, a stiff mode holds its step at
+ * the stability bound (integrator.c switches); then the linearly implicit ROS34PW2
+ * (rosenbrock.c). A change d(lambda) of the end value moves the step end
+ * by the method's response to adding (Phi_q^T d(lambda)) l(u) to the constraint forces, Phi_q
+ * frozen: for DOPRI -h^2 position M^-1 Phi_q^T d(lambda) on q and -h velocity M^-1 Phi_q^T
+ * d(lambda) on qd; for the Rosenbrock step the same through its stages, in which the stiff
+ * elastic forces answer at once. The passes' S = Phi_q G Phi_q^T take G from that response.
  *
  * y = (q, qd, work): the dissipated work rides along as quadrature states.
  */
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "runtime.h"
@@ -100,6 +109,17 @@ int dep_stepper_init(dep_stepper *stepper, const dep_system *system, dep_constra
     stepper->jt_lam = dep_doubles(arena, (size_t)nq);
     stepper->q1 = dep_doubles(arena, (size_t)nq);
     stepper->restart_J = dep_doubles(arena, (size_t)capacity * (size_t)nq);
+    stepper->dq = dep_doubles(arena, (size_t)nq);
+    stepper->dqd = dep_doubles(arena, (size_t)nq);
+    stepper->column = dep_doubles(arena, (size_t)nq);
+    stepper->implicit = 0;
+    if (system->model->nkz > 0) {
+        if (dep_implicit_init(&stepper->im, system, ny, arena) != DEP_OK) {
+            return DEP_MEMORY_ERROR;
+        }
+        stepper->slot = dep_bytes(arena, (size_t)nq * sizeof *stepper->slot);
+        stepper->columns = dep_doubles(arena, 2 * (size_t)nq * (size_t)nq);
+    }
     return arena->failed ? DEP_MEMORY_ERROR : DEP_OK;
 }
 
@@ -116,17 +136,6 @@ void dep_stepper_set_rhs(dep_stepper *stepper, const dep_profile *profile,
     stepper->rhs_end = lam_end;
 }
 
-static void solve_motion(dep_stepper *stepper, const double *q, const double *qd, double t,
-                         const double *jt_lam, double *qdd)
-{
-    const dep_system *s = stepper->system;
-    dep_system_force(s, q, qd, t, stepper->force);
-    for (int j = 0; j < stepper->nq; ++j) {
-        stepper->force[j] -= jt_lam[j];
-    }
-    dep_mass_solve(&s->mass, stepper->force, qdd);
-}
-
 static void dissipation(const dep_system *s, const double *q, const double *qd, double t,
                         double *out)
 {
@@ -135,18 +144,40 @@ static void dissipation(const dep_system *s, const double *q, const double *qd, 
     }
 }
 
-void dep_stepper_rhs(void *context, double t, const double *y, double *dy)
+/* (qd, f - Phi_q^T lambda(t), work rates) at y = (q, qd, work) into out; with
+   `accelerations` the middle part is M^-1 (f - Phi_q^T lambda(t)), qdd. */
+static void right_side(dep_stepper *stepper, double t, const double *y, double *out,
+                       int accelerations)
 {
-    dep_stepper *stepper = context;
     dep_constraints *cs = stepper->constraints;
+    const dep_system *s = stepper->system;
     int nq = stepper->nq;
     const double *q = y, *qd = y + nq;
     stepper->rhs_evaluations++;
     dep_profile_value(&stepper->profile, stepper->rhs_end, t, cs->nc, stepper->rhs_lam);
     dep_cs_jacobian_transpose_times(cs, q, t, stepper->rhs_lam, stepper->jt_lam);
-    memcpy(dy, qd, (size_t)nq * sizeof *dy);
-    solve_motion(stepper, q, qd, t, stepper->jt_lam, dy + nq);
-    dissipation(stepper->system, q, qd, t, dy + 2 * nq);
+    memcpy(out, qd, (size_t)nq * sizeof *out);
+    dep_system_force(s, q, qd, t, stepper->force);
+    for (int j = 0; j < nq; ++j) {
+        stepper->force[j] -= stepper->jt_lam[j];
+    }
+    if (accelerations) {
+        dep_mass_solve(&s->mass, stepper->force, out + nq);
+    } else {
+        memcpy(out + nq, stepper->force, (size_t)nq * sizeof *out);
+    }
+    dissipation(s, q, qd, t, out + 2 * nq);
+}
+
+void dep_stepper_rhs(void *context, double t, const double *y, double *dy)
+{
+    right_side(context, t, y, dy, 1);
+}
+
+/* g = (qd, f - Phi_q^T lambda(t), work rates): the Rosenbrock step's right side. */
+static void stage_force(void *context, double t, const double *y, double *g)
+{
+    right_side(context, t, y, g, 0);
 }
 
 /* dy/dt at an accepted state: the first RK stage (qdd is known). */
@@ -171,7 +202,8 @@ int dep_acceleration(dep_stepper *stepper, const double *q, const double *qd, do
 
 /* ---- one step ---------------------------------------------------------------------------- */
 
-/* One DOPRI step with lambda_{i+1} = lam1 into the stepper's base, and Phi_q at its end. */
+/* One step of the ODE method with lambda_{i+1} = lam1 into the stepper's base, and Phi_q at
+   its end. */
 static void integrate(dep_stepper *stepper, const double *lam1)
 {
     int nc = stepper->constraints->nc;
@@ -179,8 +211,13 @@ static void integrate(dep_stepper *stepper, const double *lam1)
     stepper->integrations_this_step++;
     stepper->integrations++;
     dep_stepper_set_rhs(stepper, &stepper->profile, lam1);
-    dep_dopri_step(&stepper->base, dep_stepper_rhs, stepper, s->t, stepper->y0, stepper->k1,
-                   stepper->h, stepper->scratch);
+    if (stepper->implicit) {
+        dep_rosenbrock_step(&stepper->im, &stepper->base, stage_force, stepper, s->t,
+                            stepper->y0, stepper->h);
+    } else {
+        dep_dopri_step(&stepper->base, dep_stepper_rhs, stepper, s->t, stepper->y0,
+                       stepper->k1, stepper->h, stepper->scratch);
+    }
     memcpy(stepper->base_lam, lam1, (size_t)nc * sizeof *lam1);
     dep_cs_jacobian(stepper->constraints, stepper->base.y1, stepper->t1, stepper->base_J);
     stepper->base_valid = 1;
@@ -189,6 +226,8 @@ static void integrate(dep_stepper *stepper, const double *lam1)
 static void copy_base(const dep_stepper *stepper, dep_rk_step *to)
 {
     size_t ny = (size_t)stepper->ny;
+    to->method = stepper->base.method;
+    to->order = stepper->base.order;
     to->t0 = stepper->base.t0;
     to->h = stepper->base.h;
     to->y0 = stepper->base.y0;
@@ -199,23 +238,151 @@ static void copy_base(const dep_stepper *stepper, dep_rk_step *to)
     to->stiffness = stepper->base.stiffness;
 }
 
-/* The base trajectory's end moved to lambda_{i+1} = lam1 by the frozen-Phi_q effect of the
-   change d = lam1 - base_lam: q by -h^2 position M^-1 Phi_q^T d, qd by -h velocity
-   M^-1 Phi_q^T d; 0 (nothing done) when those moves exceed LINEAR_LIMIT tolerances, where the
-   part of the true response the linearisation misses (tangential, a fraction of the move)
-   could cost accuracy: the step is integrated again instead. */
+/* The responses to unit forces on the coordinates units[0..count) into slots n_slots.. */
+static void unit_block(dep_stepper *stepper, const int *units, int count)
+{
+    int nq = stepper->nq;
+    double *x = stepper->im.block_x, *dq = stepper->im.block_dq, *dqd = stepper->im.block_dqd;
+    memset(x, 0, (size_t)nq * (size_t)count * sizeof *x);
+    for (int v = 0; v < count; ++v) {
+        x[(size_t)units[v] * count + v] = 1.0;
+    }
+    dep_implicit_response(&stepper->im, count, x, stepper->weight, dq, dqd);
+    for (int v = 0; v < count; ++v) {
+        double *column = stepper->columns + 2 * (size_t)nq * (size_t)(stepper->n_slots + v);
+        for (int i = 0; i < nq; ++i) {
+            column[i] = dq[(size_t)i * count + v];
+            column[nq + i] = dqd[(size_t)i * count + v];
+        }
+    }
+}
+
+/* The Rosenbrock step's responses to a unit force on each coordinate the active rows touch
+   (stepper->columns), so that every later response to a constraint force is a sum of them. */
+static void unit_responses(dep_stepper *stepper)
+{
+    const dep_constraints *cs = stepper->constraints;
+    int nq = stepper->nq;
+    double times[4];
+    dep_rosenbrock_times(stepper->start->t, stepper->h, times);
+    for (int i = 0; i < 4; ++i) {
+        stepper->weight[i] = dep_profile_end_weight(&stepper->profile, times[i]);
+    }
+    for (int j = 0; j < nq; ++j) {
+        stepper->slot[j] = -1;
+    }
+    stepper->n_slots = 0;
+    for (int k = 0; k < cs->row_start[cs->nc]; ++k) {
+        int j = cs->row_cols[k];
+        if (stepper->slot[j] < 0) {
+            stepper->slot[j] = nq; /* touched; numbered below */
+        }
+    }
+    int units[DEP_RESPONSE_BLOCK], count = 0;
+    for (int j = 0; j <= nq; ++j) { /* the unit forces, DEP_RESPONSE_BLOCK at a time */
+        if (j < nq && stepper->slot[j] == nq) {
+            stepper->slot[j] = stepper->n_slots + count;
+            units[count++] = j;
+        }
+        if (count == DEP_RESPONSE_BLOCK || (j == nq && count > 0)) {
+            unit_block(stepper, units, count);
+            stepper->n_slots += count;
+            count = 0;
+        }
+    }
+}
+
+/* The step end's response (stepper->dq, dqd) to adding x l(u) to the constraint forces
+   Phi_q^T lambda over the step (x: nq, a generalized force). */
+static void respond(dep_stepper *stepper, const double *x)
+{
+    int nq = stepper->nq;
+    double h = stepper->h;
+    if (stepper->implicit) {
+        memset(stepper->dq, 0, (size_t)nq * sizeof *stepper->dq);
+        memset(stepper->dqd, 0, (size_t)nq * sizeof *stepper->dqd);
+        for (int j = 0; j < nq; ++j) {
+            if (x[j] == 0.0) {
+                continue;
+            }
+            if (stepper->slot[j] < 0) { /* not a constraint force: through the stages */
+                dep_implicit_response(&stepper->im, 1, x, stepper->weight, stepper->dq,
+                                      stepper->dqd);
+                return;
+            }
+            const double *column = stepper->columns + 2 * (size_t)nq * (size_t)stepper->slot[j];
+            for (int i = 0; i < nq; ++i) {
+                stepper->dq[i] += x[j] * column[i];
+                stepper->dqd[i] += x[j] * column[nq + i];
+            }
+        }
+        return;
+    }
+    dep_mass_solve(&stepper->system->mass, x, stepper->force);
+    for (int j = 0; j < nq; ++j) {
+        stepper->dq[j] = -h * h * stepper->profile.position * stepper->force[j];
+        stepper->dqd[j] = -h * stepper->profile.velocity * stepper->force[j];
+    }
+}
+
+/* The response to lambda_{i+1} changed by lam - from, Phi_q frozen at J. */
+static void respond_to(dep_stepper *stepper, const double *J, const double *lam,
+                       const double *from)
+{
+    int nc = stepper->constraints->nc;
+    for (int i = 0; i < nc; ++i) {
+        stepper->rhs_lam[i] = lam[i] - from[i];
+    }
+    dep_cs_transpose_times(stepper->constraints, J, stepper->rhs_lam, stepper->column);
+    respond(stepper, stepper->column);
+}
+
+/* The passes' G for the Rosenbrock step: -(response of q) / (h^2 position) and
+   -(response of qd) / (h velocity), M^-1 x where the elastic forces are soft. */
+static void position_mobility(void *context, const double *x, double *out)
+{
+    dep_stepper *stepper = context;
+    double c = stepper->h * stepper->h * stepper->profile.position;
+    respond(stepper, x);
+    for (int j = 0; j < stepper->nq; ++j) {
+        out[j] = -stepper->dq[j] / c;
+    }
+}
+
+static void velocity_mobility(void *context, const double *x, double *out)
+{
+    dep_stepper *stepper = context;
+    double c = stepper->h * stepper->profile.velocity;
+    respond(stepper, x);
+    for (int j = 0; j < stepper->nq; ++j) {
+        out[j] = -stepper->dqd[j] / c;
+    }
+}
+
+void dep_stepper_use_mobility(dep_stepper *stepper, int stage)
+{
+    if (!stepper->implicit || (stage != DEP_POSITION && stage != DEP_VELOCITY)) {
+        dep_multipliers_set_mobility(&stepper->mp, NULL, NULL, 0);
+    } else if (stage == DEP_POSITION) {
+        dep_multipliers_set_mobility(&stepper->mp, position_mobility, stepper,
+                                     stepper->mobility_ids - 1);
+    } else {
+        dep_multipliers_set_mobility(&stepper->mp, velocity_mobility, stepper,
+                                     stepper->mobility_ids);
+    }
+}
+
+/* The base trajectory's end moved to lambda_{i+1} = lam1 by the frozen-Phi_q response to the
+   change lam1 - base_lam; 0 (nothing done) when that moves q or qd by more than LINEAR_LIMIT
+   tolerances, where the part of the true response the linearisation misses (tangential, a
+   fraction of the move) could cost accuracy: the step is integrated again instead. */
 static int correct_base(dep_stepper *stepper, const double *lam1, dep_rk_step *out)
 {
-    int nq = stepper->nq, nc = stepper->constraints->nc;
-    double h = stepper->h, sum = 0.0;
-    for (int i = 0; i < nc; ++i) {
-        stepper->rhs_lam[i] = lam1[i] - stepper->base_lam[i];
-    }
-    dep_cs_transpose_times(stepper->constraints, stepper->base_J, stepper->rhs_lam, stepper->jt_lam);
-    dep_mass_solve(&stepper->system->mass, stepper->jt_lam, stepper->force);
+    int nq = stepper->nq;
+    double sum = 0.0;
+    respond_to(stepper, stepper->base_J, lam1, stepper->base_lam);
     for (int j = 0; j < nq; ++j) { /* the moves of q and qd in tolerance units */
-        double move = h * h * stepper->profile.position * stepper->force[j];
-        double rate = h * stepper->profile.velocity * stepper->force[j];
+        double move = stepper->dq[j], rate = stepper->dqd[j];
         double scale = stepper->tol * (1.0 + fabs(stepper->base.y1[j]));
         double rate_scale = stepper->tol * (1.0 + fabs(stepper->base.y1[nq + j]));
         sum += (move / scale) * (move / scale) + (rate / rate_scale) * (rate / rate_scale);
@@ -225,8 +392,8 @@ static int correct_base(dep_stepper *stepper, const double *lam1, dep_rk_step *o
     }
     copy_base(stepper, out);
     for (int j = 0; j < nq; ++j) {
-        out->y1[j] -= h * h * stepper->profile.position * stepper->force[j];
-        out->y1[nq + j] -= h * stepper->profile.velocity * stepper->force[j];
+        out->y1[j] += stepper->dq[j];
+        out->y1[nq + j] += stepper->dqd[j];
     }
     return 1;
 }
@@ -255,20 +422,17 @@ static void measure_position(void *context, const double *lam1, dep_measurement 
     out->scale = dep_max_abs(q1, stepper->nq);
 }
 
-/* qd_{i+1} = qd of the position pass's trajectory
-              - h velocity M^-1 J1^T (lambda - lambda_pos). */
+/* qd_{i+1} = qd of the position pass's trajectory plus the response of qd to
+   lambda - lambda_pos, Phi_q frozen at its end (DOPRI: -h velocity M^-1 J1^T (lambda -
+   lambda_pos)). */
 static void measure_velocity(void *context, const double *lam1, dep_measurement *out)
 {
     dep_stepper *stepper = context;
     const dep_measurement *pos = stepper->final_position;
     int nq = stepper->nq, nc = stepper->constraints->nc;
-    for (int i = 0; i < nc; ++i) {
-        stepper->rhs_lam[i] = lam1[i] - stepper->lam_pos[i];
-    }
-    dep_cs_transpose_times(stepper->constraints, pos->J, stepper->rhs_lam, stepper->jt_lam);
-    dep_mass_solve(&stepper->system->mass, stepper->jt_lam, stepper->force);
+    respond_to(stepper, pos->J, lam1, stepper->lam_pos);
     for (int j = 0; j < nq; ++j) {
-        out->x[j] = pos->rk.y1[nq + j] - stepper->h * stepper->profile.velocity * stepper->force[j];
+        out->x[j] = pos->rk.y1[nq + j] + stepper->dqd[j];
     }
     dep_cs_times(stepper->constraints, pos->J, out->x, out->v);
     for (int i = 0; i < nc; ++i) {
@@ -284,8 +448,11 @@ static void finish_step(dep_stepper *stepper, const dep_state *state, dep_outcom
 {
     int nq = stepper->nq, nd = stepper->system->nd;
     dep_state *new = &outcome->state;
-    const dep_rk_step *rk = &stepper->final_position->rk;
+    dep_rk_step *rk = &stepper->final_position->rk;
     memcpy(new->work, rk->y1 + 2 * nq, (size_t)nd * sizeof(double));
+    if (rk->method == DEP_ROSENBROCK) { /* the work rates at the end, for the dense output */
+        dissipation(stepper->system, new->q, new->qd, new->t, rk->K + 6 * (size_t)rk->n + 2 * nq);
+    }
     dep_interpolant_data(new->t - state->t, state->q, state->qd, state->qdd, new->q, new->qd,
                          new->qdd, nq, outcome->data);
     outcome->rk = rk;
@@ -317,6 +484,21 @@ int dep_step(dep_stepper *stepper, const dep_state *state, const dep_profile *pr
     memcpy(stepper->y0 + 2 * nq, state->work, (size_t)nd * sizeof(double));
     dep_stepper_derivative(stepper, state, stepper->k1);
     memcpy(new->lam, lam_predicted, (size_t)nc * sizeof(double));
+    if (stepper->implicit) {
+        if (!dep_implicit_prepare(&stepper->im, state->q, h)) {
+            failure->stage = DEP_POSITION;
+            failure->row = -1;
+            failure->residual = failure->scale = 0.0;
+            snprintf(failure->reason, sizeof failure->reason, "the linearly implicit step's "
+                     "matrix M + gamma h D + gamma^2 h^2 K is not positive definite");
+            return DEP_PASS_FAILED;
+        }
+        dep_stepper_set_rhs(stepper, &stepper->profile, new->lam); /* lambda(t0): history */
+        stage_force(stepper, state->t, stepper->y0, stepper->im.g0);
+        unit_responses(stepper);
+        stepper->mobility_ids += 2;
+    }
+    dep_stepper_use_mobility(stepper, DEP_POSITION);
 
     dep_measurement *position[2] = {&stepper->slots[0], &stepper->slots[1]};
     status = dep_iterate_multipliers(&stepper->mp, DEP_POSITION, new->lam, nc, measure_position,
@@ -324,8 +506,10 @@ int dep_step(dep_stepper *stepper, const dep_state *state, const dep_profile *pr
                                      stepper->constraint_tol, position,
                                      &stepper->final_position, &outcome->reports[0], failure);
     if (status != DEP_OK) {
+        dep_stepper_use_mobility(stepper, DEP_ACCELERATION);
         return status;
     }
+    dep_stepper_use_mobility(stepper, DEP_VELOCITY);
     memcpy(new->q, stepper->final_position->rk.y1, (size_t)nq * sizeof(double));
     dep_cs_phi_t(cs, new->q, stepper->t1, stepper->phi_t1);
     memcpy(stepper->lam_pos, new->lam, (size_t)nc * sizeof(double));
@@ -335,6 +519,7 @@ int dep_step(dep_stepper *stepper, const dep_state *state, const dep_profile *pr
                                      stepper, h * profile->velocity, stepper->constraint_tol,
                                      velocity, &final,
                                      &outcome->reports[1], failure);
+    dep_stepper_use_mobility(stepper, DEP_ACCELERATION);
     if (status != DEP_OK) {
         return status;
     }

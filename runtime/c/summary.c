@@ -273,6 +273,14 @@ static void solver_lines(const dep_model *m, const dep_result *r, text *out)
         s->velocity.mean, s->velocity.max, s->acceleration.mean, s->acceleration.max);
     put(out, "  largest constraint residuals at steps: position %.1e, velocity %.1e, "
         "acceleration %.1e\n", s->max_v_pos, s->max_v_vel, s->max_v_acc);
+    if (!isnan(s->implicit_from) && isnan(s->stiff_rate)) {
+        put(out, "  linearly implicit steps throughout (stepping implicit); modes much faster "
+            "than the step are damped (docs/method.md)\n");
+    } else if (!isnan(s->implicit_from)) {
+        put(out, "  linearly implicit steps from t = %.6g s: a mode of rate %.3g 1/s held the "
+            "explicit step; modes much faster than the step are damped (docs/method.md)\n",
+            s->implicit_from, s->stiff_rate);
+    }
     for (int e = 0; e < r->n_events; ++e) {
         if (is_latch_event(m, r, r->events[e].name)
             || strcmp(r->events[e].name, "assembly") == 0) {

@@ -1,6 +1,6 @@
 /* system.c: the model bound to one parameter vector: its constant mass matrix, factorised
- * once (inverted if diagonal, Cholesky otherwise), its hinges' properties (read from
- * hinge_properties by name) and the forces, powers and energies of a run (the model's plus
+ * once (inverted if diagonal, else its envelope Cholesky factor; dep_envelope), its hinges'
+ * properties (read from hinge_properties by name) and the forces, powers and energies of a run (the model's plus
  * the hinge torques of mechanism.c).
  */
 #include <math.h>
@@ -45,23 +45,32 @@ static int factor_mass(dep_mass *mass, const char *const *coordinates, dep_arena
         }
         return DEP_OK;
     }
-    double *L = mass->cholesky = dep_doubles(arena, (size_t)n * (size_t)n);
-    if (L == NULL) {
+    int *first = dep_bytes(arena, (size_t)n * sizeof *first);
+    if (first == NULL) {
         return dep_plain_error(error, DEP_MEMORY_ERROR, "out of memory");
     }
-    for (int j = 0; j < n; ++j) { /* M = L L^T */
-        for (int i = j; i < n; ++i) {
-            double sum = M[i * n + j];
-            for (int k = 0; k < j; ++k) {
-                sum -= L[i * n + k] * L[j * n + k];
+    for (int i = 0; i < n; ++i) { /* each row from its first non-zero (beams: a band) */
+        first[i] = i;
+        for (int j = 0; j < i; ++j) {
+            if (M[i * n + j] != 0.0 || M[j * n + i] != 0.0) {
+                first[i] = j;
+                break;
             }
-            if (i == j && !(sum > 0)) {
-                return dep_solver_error(error, 0, 0.0, "setup", NULL, NULL, 0, 0.0,
-                                        "mass matrix is not positive definite",
-                                        "check masses, inertias and beam properties");
-            }
-            L[i * n + j] = i == j ? sqrt(sum) : sum / L[j * n + j];
         }
+    }
+    dep_envelope *e = &mass->factor;
+    if (dep_envelope_init(e, n, first, arena) != DEP_OK) {
+        return dep_plain_error(error, DEP_MEMORY_ERROR, "out of memory");
+    }
+    for (int i = 0; i < n; ++i) {
+        for (int j = first[i]; j <= i; ++j) {
+            DEP_ENVELOPE_AT(e, e->A, i, j) = M[i * n + j];
+        }
+    }
+    if (!dep_envelope_factor(e)) {
+        return dep_solver_error(error, 0, 0.0, "setup", NULL, NULL, 0, 0.0,
+                                "mass matrix is not positive definite",
+                                "check masses, inertias and beam properties");
     }
     return DEP_OK;
 }
@@ -75,7 +84,7 @@ void dep_mass_solve(const dep_mass *mass, const double *b, double *x)
         }
         return;
     }
-    dep_cholesky_solve(mass->cholesky, n, b, x);
+    dep_envelope_solve(&mass->factor, b, x);
 }
 
 void dep_cholesky_solve(const double *L, int n, const double *b, double *x)
@@ -93,6 +102,105 @@ void dep_cholesky_solve(const double *L, int n, const double *b, double *x)
             sum -= L[k * n + i] * x[k];
         }
         x[i] = sum / L[i * n + i];
+    }
+}
+
+/* ---- envelope matrices -------------------------------------------------------------------- */
+
+int dep_envelope_init(dep_envelope *e, int n, const int *first, dep_arena *arena)
+{
+    e->n = n;
+    e->first = dep_bytes(arena, ((size_t)n + 1) * sizeof *e->first);
+    e->offset = dep_bytes(arena, ((size_t)n + 1) * sizeof *e->offset);
+    if (e->first == NULL || e->offset == NULL) {
+        return DEP_MEMORY_ERROR;
+    }
+    e->offset[0] = 0;
+    for (int i = 0; i < n; ++i) {
+        e->first[i] = first[i];
+        e->offset[i + 1] = e->offset[i] + i - first[i] + 1;
+    }
+    e->A = dep_doubles(arena, (size_t)e->offset[n] + 1);
+    e->L = dep_doubles(arena, (size_t)e->offset[n] + 1);
+    return arena->failed ? DEP_MEMORY_ERROR : DEP_OK;
+}
+
+int dep_envelope_factor(dep_envelope *e)
+{
+    double largest = 0.0;
+    for (int i = 0; i < e->n; ++i) {
+        largest = fmax(largest, DEP_ENVELOPE_AT(e, e->A, i, i));
+    }
+    for (int i = 0; i < e->n; ++i) {
+        for (int j = e->first[i]; j <= i; ++j) {
+            int from = e->first[i] > e->first[j] ? e->first[i] : e->first[j];
+            double sum = DEP_ENVELOPE_AT(e, e->A, i, j);
+            const double *Li = &DEP_ENVELOPE_AT(e, e->L, i, from);
+            const double *Lj = &DEP_ENVELOPE_AT(e, e->L, j, from);
+            for (int k = 0; k < j - from; ++k) {
+                sum -= Li[k] * Lj[k];
+            }
+            if (j < i) {
+                DEP_ENVELOPE_AT(e, e->L, i, j) = sum / DEP_ENVELOPE_AT(e, e->L, j, j);
+            } else if (!(sum > 1e-12 * largest)) {
+                return 0;
+            } else {
+                DEP_ENVELOPE_AT(e, e->L, i, i) = sqrt(sum);
+            }
+        }
+    }
+    return 1;
+}
+
+void dep_envelope_solve(const dep_envelope *e, const double *b, double *x)
+{
+    dep_envelope_solve_block(e, 1, b, x);
+}
+
+void dep_envelope_solve_block(const dep_envelope *e, int count, const double *b, double *x)
+{
+    if (x != b) {
+        memcpy(x, b, (size_t)e->n * (size_t)count * sizeof *x);
+    }
+    for (int i = 0; i < e->n; ++i) { /* L y = b */
+        double *xi = x + (size_t)i * count, pivot = DEP_ENVELOPE_AT(e, e->L, i, i);
+        for (int k = e->first[i]; k < i; ++k) {
+            double l = DEP_ENVELOPE_AT(e, e->L, i, k);
+            const double *xk = x + (size_t)k * count;
+            for (int v = 0; v < count; ++v) {
+                xi[v] -= l * xk[v];
+            }
+        }
+        for (int v = 0; v < count; ++v) {
+            xi[v] /= pivot;
+        }
+    }
+    for (int i = e->n - 1; i >= 0; --i) { /* L^T x = y, column by column */
+        double *xi = x + (size_t)i * count, pivot = DEP_ENVELOPE_AT(e, e->L, i, i);
+        for (int v = 0; v < count; ++v) {
+            xi[v] /= pivot;
+        }
+        for (int k = e->first[i]; k < i; ++k) {
+            double l = DEP_ENVELOPE_AT(e, e->L, i, k);
+            double *xk = x + (size_t)k * count;
+            for (int v = 0; v < count; ++v) {
+                xk[v] -= l * xi[v];
+            }
+        }
+    }
+}
+
+void dep_envelope_times(const dep_envelope *e, const double *values, const double *x,
+                        double *out)
+{
+    memset(out, 0, (size_t)e->n * sizeof *out);
+    for (int i = 0; i < e->n; ++i) {
+        for (int j = e->first[i]; j < i; ++j) {
+            double a = DEP_ENVELOPE_AT(e, values, i, j);
+            out[i] += a * x[j];
+            out[j] += a * x[i];
+        }
+        out[i] += DEP_ENVELOPE_AT(e, values, i, i) * x[i];
     }
 }
 

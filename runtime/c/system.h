@@ -36,11 +36,32 @@ void dep_repr(double value, char *out, size_t size); /* Python's repr(float) */
 int dep_check_settings(const dep_model *model, const double *p, const dep_settings *settings,
                        int open, dep_error *error);
 
+/* A symmetric positive definite matrix in envelope (skyline) form and its Cholesky factor,
+   which fills nothing outside the envelope: row i holds columns first[i]..i, from offset[i].
+   A band of width b costs O(n b^2) to factor and O(n b) to solve. */
+typedef struct dep_envelope {
+    int n;
+    int *first, *offset; /* n, n + 1 */
+    double *A, *L;       /* offset[n] each */
+} dep_envelope;
+
+#define DEP_ENVELOPE_AT(e, M, i, j) ((M)[(e)->offset[i] + (j) - (e)->first[i]])
+
+/* Room for the envelope whose row i starts at column first[i] <= i (copied); A zeroed. */
+int dep_envelope_init(dep_envelope *e, int n, const int *first, dep_arena *arena);
+int dep_envelope_factor(dep_envelope *e); /* 0 when not positive definite to working precision */
+void dep_envelope_solve(const dep_envelope *e, const double *b, double *x); /* x may be b */
+/* The same for `count` right sides at once, interleaved: entry i of side v at [i count + v]. */
+void dep_envelope_solve_block(const dep_envelope *e, int count, const double *b, double *x);
+/* out = A x for the symmetric matrix whose lower envelope is `values` (e's layout). */
+void dep_envelope_times(const dep_envelope *e, const double *values, const double *x,
+                        double *out);
+
 typedef struct dep_mass {
     int n, diagonal;
     double *matrix;           /* n x n */
     double *inverse_diagonal; /* n, when diagonal */
-    double *cholesky;         /* n x n lower factor, otherwise */
+    dep_envelope factor;      /* otherwise: M in envelope form and its Cholesky factor */
 } dep_mass;
 
 void dep_mass_solve(const dep_mass *mass, const double *b, double *x); /* x = M^-1 b; x may be b */

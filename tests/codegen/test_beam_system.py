@@ -162,6 +162,36 @@ def test_static_equilibrium_of_the_generated_forces_at_eight_elements(tmp_path):
     assert abs(root_y) == pytest.approx(weight, rel=1e-9)
 
 
+def test_stiffness_is_the_force_jacobian_where_the_strains_vanish(tmp_path):
+    """`stiffness` (K, D: the linearly implicit step's Jacobian, docs/method.md, 10) against
+    central differences of `force`, for a beam on a root spring and damper carrying a tip mass
+    (beams, hinge spring and damper). In the undeformed pose, with the spring at its rest
+    angle, the terms K leaves out (each proportional to a strain or the spring's angle) vanish,
+    so K is -df/dq there to the differences' accuracy; D = -df/dqd everywhere (f is linear in
+    qd). In a deformed pose K stays symmetric positive semi-definite."""
+    module = compile_text(tmp_path, SPRING_CLAMPED.format(n=3, **STATIC), "spring_stiffness")
+    p = defaults(module)
+    q0, _ = module.initial_state(p)
+    nq = module.NQ
+    K, D = (np.zeros((nq, nq)) for _ in range(2))
+    values = module.stiffness(q0, p)
+    K[list(module.STIFFNESS_ROWS), list(module.STIFFNESS_COLS)] = values[0]
+    D[list(module.STIFFNESS_ROWS), list(module.STIFFNESS_COLS)] = values[1]
+    scale = np.abs(K).max()
+    assert np.max(np.abs(K - stiffness(module, q0, p))) < 1e-6 * scale
+    zero, rates = np.zeros(nq), []
+    for unit in np.eye(nq):
+        rates.append(-(np.asarray(module.force(q0, unit, 0.0, p))
+                       - np.asarray(module.force(q0, zero, 0.0, p))))
+    assert np.max(np.abs(D - np.array(rates).T)) < 1e-9 * np.abs(D).max()
+    assert STATIC["c"] * 0.99 < np.abs(D).max()  # the root damper is in it
+    rng = np.random.default_rng(3)
+    q = q0 + 1e-3 * rng.normal(size=nq)
+    K[list(module.STIFFNESS_ROWS), list(module.STIFFNESS_COLS)] = module.stiffness(q, p)[0]
+    assert np.max(np.abs(K - K.T)) < 1e-12 * scale
+    assert np.linalg.eigvalsh(K).min() > -1e-9 * scale
+
+
 # -- vibration -------------------------------------------------------------------------------
 
 def test_linearised_generated_cantilever_has_beam_theory_frequencies(tmp_path):
@@ -186,10 +216,12 @@ def test_integrated_cantilever_vibrates_at_its_first_bending_frequency(tmp_path)
     """Released undeformed in gravity, the clamped beam oscillates about its static sag; the
     frequency fitted to the tip deflection over 2.5 periods is beam theory's. Four elements
     (f1 error 3e-5 in the element): eight take 7x longer, the limiting step being set by the
-    highest bending mode (omega_max / omega_1 = 270 at four elements, 1090 at eight)."""
+    highest bending mode (omega_max / omega_1 = 270 at four elements, 1090 at eight). The
+    explicit step, which resolves every mode and so conserves energy; the linearly implicit
+    one: tests/runtime/test_implicit_step.py."""
     module = compile_text(tmp_path, SLIDER_CLAMPED.format(n=4, t_end=0.45, **VIBRATION),
                           "slider_clamped4")
-    result = simulate(module)
+    result = simulate(module, stepping="explicit")
     omega = dominant_frequency(result.times, result.output("deflection"))
     exact = CANTILEVER_ROOTS[0] ** 2 * math.sqrt(VIBRATION["EI"])
     assert omega == pytest.approx(exact, rel=1e-3)  # measured -5e-5

@@ -5,8 +5,8 @@ Every evaluation factorises the augmented system (LU, numpy.linalg.solve)
     [ M      Phi_q^T ] [ qdd    ]   [ f + J_h^T tau                              ]
     [ Phi_q  0       ] [ lambda ] = [ gamma - 2 a (Phi_q qd + Phi_t) - b^2 Phi   ]
 
-with Baumgarte stabilisation (a = b = BAUMGARTE, 1/s), and scipy's DOP853 integrates the
-index-1 equations. It shares nothing with the integrator core but the generated model
+with Baumgarte stabilisation (a = b = BAUMGARTE, 1/s), and scipy's DOP853 (or, for stiff
+models such as fine beams, the implicit Radau IIA of order 5) integrates the index-1 equations. It shares nothing with the integrator core but the generated model
 functions: tau is each hinge's friction by the regularised law -friction tanh(rate /
 slip_rate), written here again from docs/deployment.md (no latches, stops or stick-slip).
 Events are located by solve_ivp; a callback may add rows and ask for a plastic impact
@@ -105,9 +105,10 @@ class DirectSolver:
         return np.linalg.solve(K, b)[:len(q)]
 
 
-def solve_direct(module, params=None, t_end=None, dt_out=None, tol=None, events=()
-                 ) -> DirectSolution:
-    """The reference solution of `module` (see the module docstring)."""
+def solve_direct(module, params=None, t_end=None, dt_out=None, tol=None, events=(),
+                 method="DOP853", rate_tol=None) -> DirectSolution:
+    """The reference solution of `module` (see the module docstring); rate_tol: the absolute
+    tolerance of the velocities, if not tol."""
     solver = DirectSolver(module, params, tol)
     t_end = float(module.T_END if t_end is None else t_end)
     times = output_times(t_end, float(module.DT_OUT if dt_out is None else dt_out))
@@ -123,7 +124,8 @@ def solve_direct(module, params=None, t_end=None, dt_out=None, tol=None, events=
     while True:
         armed = [k for k, e in enumerate(events) if e.max_hits is None or hits[k] < e.max_hits]
         functions = [_event_function(events[k], k, muted, nq) for k in armed]
-        sol = solve_ivp(rhs, (t, t_end), y, method="DOP853", rtol=solver.tol, atol=solver.tol,
+        atol = np.concatenate((np.full(nq, solver.tol), np.full(nq, rate_tol or solver.tol)))
+        sol = solve_ivp(rhs, (t, t_end), y, method=method, rtol=solver.tol, atol=atol,
                         dense_output=True, events=functions or None)
         steps += len(sol.t) - 1
         while len(rows) < len(times) and times[len(rows)] <= sol.t[-1] + 1e-12 * t_end:

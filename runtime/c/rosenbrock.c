@@ -1,0 +1,296 @@
+/* rosenbrock.c: the linearly implicit step for stiff elastic forces (docs/method.md, 10).
+ *
+ * A beam's axial and high bending modes are far faster than its motion; an explicit method
+ * must resolve them for stability. ROS34PW2 (Rang & Angermann, BIT 45 (2005) 761-787) is a
+ * W-method: of order 3 whatever Jacobian T it is given, L-stable in the modes T describes.
+ * With lambda(t) prescribed over the step (the paper's frame), the motion is the ODE
+ * y' = F(t, y), y = (q, qd, work), and each stage i solves
+ *
+ *     (I - gamma h T) k_i = h F(t0 + c_i h, y0 + sum_j a_ij k_j) + h T sum_j g_ij k_j
+ *
+ * with T = [[0, I, 0], [-M^-1 K, -M^-1 D, 0], [0, 0, 0]], K and D the stiff forces' stiffness
+ * and damping (the model's `stiffness`: the beams' elasticity and damping, hinge springs and
+ * dampers, cables; evaluated once per step). Its velocity
+ * block is W kv = M r_v - gamma h K r_q with W = M + gamma h D + gamma^2 h^2 K, symmetric
+ * positive definite and banded: one envelope factorisation per step, no M^-1 anywhere.
+ * The step's error is sum (b_i - bhat_i) k_i (the embedded order-2 solution), filtered by
+ * (I - gamma h T)^-1 as in Hairer & Wanner's RADAU5 (Solving ODEs II, IV.8): modes T makes
+ * stiff (omega h >> 1) are damped by the L-stable method and leave the estimate, so an
+ * excited axial or high bending mode of a beam does not hold the step at its period, while
+ * the motion T does not stiffen keeps its estimate.
+ */
+#include <math.h>
+#include <string.h>
+
+#include "runtime.h"
+
+#define GAMMA 0.435866521508459
+static const double ALPHA[4][3] = {
+    {0},
+    {0.87173304301691801},
+    {0.84457060015369423, -0.11299064236484185},
+    {0.0, 0.0, 1.0},
+};
+static const double COUPLING[4][3] = { /* gamma_ij */
+    {0},
+    {-0.87173304301691801},
+    {-0.90338057013044082, 0.054180672388095326},
+    {0.24212380706095346, -1.2232505839045147, 0.54526025533510214},
+};
+static const double B[4] = {0.24212380706095346, -1.2232505839045147, 1.5452602553351020,
+                            0.435866521508459};
+static const double BHAT[4] = {0.37810903145819369, -0.096042292212423178, 0.5,
+                               0.2179332607542295};
+static const double C[4] = {0.0, 0.87173304301691801, 0.73157995778885238, 1.0}; /* sum_j a_ij */
+
+int dep_implicit_init(dep_implicit *im, const dep_system *system, int ny, dep_arena *arena)
+{
+    const dep_model *model = system->model;
+    int nq = system->nq, nkz = model->nkz;
+    memset(im, 0, sizeof *im);
+    im->system = system;
+    im->nq = nq;
+    im->ny = ny;
+    im->nkz = nkz;
+    im->K = dep_doubles(arena, (size_t)nkz);
+    im->D = dep_doubles(arena, (size_t)nkz);
+    im->lower = dep_bytes(arena, (size_t)nkz * sizeof *im->lower + 1);
+    int *first = dep_bytes(arena, (size_t)nq * sizeof *first + 1);
+    if (arena->failed) {
+        return DEP_MEMORY_ERROR;
+    }
+    /* W's envelope: M's and K's non-zeros on or below the diagonal */
+    const double *M = system->mass.matrix;
+    for (int i = 0; i < nq; ++i) {
+        first[i] = i;
+        for (int j = 0; j < i; ++j) {
+            if (M[(size_t)i * nq + j] != 0.0) {
+                first[i] = j;
+                break;
+            }
+        }
+    }
+    for (int k = 0; k < nkz; ++k) {
+        int i = model->stiffness_rows[k], j = model->stiffness_cols[k];
+        if (j < first[i]) {
+            first[i] = j;
+        }
+    }
+    if (dep_envelope_init(&im->W, nq, first, arena) != DEP_OK) {
+        return DEP_MEMORY_ERROR;
+    }
+    im->mass_envelope = dep_doubles(arena, (size_t)im->W.offset[nq] + 1);
+    im->g0 = dep_doubles(arena, (size_t)ny);
+    im->k = dep_doubles(arena, 4 * (size_t)ny);
+    im->arg = dep_doubles(arena, (size_t)ny);
+    im->g = dep_doubles(arena, (size_t)ny);
+    size_t block = (size_t)DEP_RESPONSE_BLOCK * (size_t)nq;
+    im->sum = dep_doubles(arena, 2 * block + (size_t)ny);
+    im->rhs = dep_doubles(arena, (size_t)nq);
+    im->block_rhs = dep_doubles(arena, block);
+    im->product = dep_doubles(arena, block);
+    im->dk = dep_doubles(arena, 8 * block);
+    im->block_x = dep_doubles(arena, block);
+    im->block_dq = dep_doubles(arena, block);
+    im->block_dqd = dep_doubles(arena, block);
+    if (arena->failed) {
+        return DEP_MEMORY_ERROR;
+    }
+    for (int i = 0; i < nq; ++i) {
+        for (int j = first[i]; j <= i; ++j) {
+            DEP_ENVELOPE_AT(&im->W, im->mass_envelope, i, j) = M[(size_t)i * nq + j];
+        }
+    }
+    for (int k = 0; k < nkz; ++k) {
+        int i = model->stiffness_rows[k], j = model->stiffness_cols[k];
+        im->lower[k] = j <= i ? im->W.offset[i] + j - im->W.first[i] : -1;
+    }
+    return DEP_OK;
+}
+
+int dep_implicit_prepare(dep_implicit *im, const double *q, double h)
+{
+    const dep_system *s = im->system;
+    s->model->stiffness(q, s->p, im->K, im->D);
+    im->damped = 0;
+    for (int k = 0; k < im->nkz; ++k) {
+        im->damped |= im->D[k] != 0.0;
+    }
+    memcpy(im->W.A, im->mass_envelope, (size_t)im->W.offset[im->nq] * sizeof *im->W.A);
+    double a = GAMMA * h, b = a * a;
+    for (int k = 0; k < im->nkz; ++k) {
+        if (im->lower[k] >= 0) {
+            im->W.A[im->lower[k]] += a * im->D[k] + b * im->K[k];
+        }
+    }
+    im->h = h;
+    im->id++;
+    return dep_envelope_factor(&im->W);
+}
+
+/* out -= A x for a matrix on the stiffness pattern (K or D), on `count` interleaved vectors
+   (entry j of vector v at [j count + v]). */
+static void pattern_subtract(const dep_implicit *im, const double *values, int count,
+                             const double *x, double *out)
+{
+    const int *rows = im->system->model->stiffness_rows, *cols = im->system->model->stiffness_cols;
+    for (int k = 0; k < im->nkz; ++k) {
+        double a = values[k];
+        double *o = out + (size_t)rows[k] * count;
+        const double *xk = x + (size_t)cols[k] * count;
+        for (int v = 0; v < count; ++v) {
+            o[v] -= a * xk[v];
+        }
+    }
+}
+
+/* `count` stages at once (interleaved) from r_q (in kq), their velocity right sides less the
+   elastic terms (in rhs, overwritten), the stiffness's argument s_q and the damping's s_v:
+   W kv = rhs - K (h s_q + gamma h r_q) - h D s_v, kq = r_q + gamma h kv. Without s (NULL),
+   the error filter: W kv = rhs - gamma h K r_q. */
+static void solve_stage(dep_implicit *im, int count, const double *sq, const double *sv,
+                        double *kq, double *kv, double *rhs)
+{
+    size_t n = (size_t)im->nq * (size_t)count;
+    double h = im->h, a = GAMMA * h, *argument = im->product;
+    for (size_t j = 0; j < n; ++j) {
+        argument[j] = (sq != NULL ? h * sq[j] : 0.0) + a * kq[j];
+    }
+    pattern_subtract(im, im->K, count, argument, rhs);
+    if (sv != NULL && im->damped) {
+        for (size_t j = 0; j < n; ++j) {
+            argument[j] = h * sv[j];
+        }
+        pattern_subtract(im, im->D, count, argument, rhs);
+    }
+    dep_envelope_solve_block(&im->W, count, rhs, kv);
+    for (size_t j = 0; j < n; ++j) {
+        kq[j] += a * kv[j];
+    }
+}
+
+void dep_rosenbrock_times(double t0, double h, double times[4])
+{
+    for (int i = 0; i < 4; ++i) {
+        times[i] = t0 + C[i] * h;
+    }
+}
+
+void dep_rosenbrock_step(dep_implicit *im, dep_rk_step *rk, dep_force_function g,
+                         void *context, double t0, const double *y0, double h)
+{
+    int nq = im->nq, ny = im->ny;
+    rk->method = DEP_ROSENBROCK;
+    rk->order = 3;
+    rk->t0 = t0;
+    rk->h = h;
+    rk->y0 = y0;
+    rk->stiffness = 0.0; /* no stability bound on the step */
+    for (int i = 0; i < 4; ++i) {
+        double *k = im->k + (size_t)i * ny;
+        const double *gi = im->g0;
+        for (int j = 0; j < ny; ++j) {
+            double arg = y0[j], sum = 0.0;
+            for (int m = 0; m < i; ++m) {
+                arg += ALPHA[i][m] * im->k[(size_t)m * ny + j];
+                sum += COUPLING[i][m] * im->k[(size_t)m * ny + j];
+            }
+            im->arg[j] = arg;
+            im->sum[j] = sum;
+        }
+        if (i > 0) {
+            g(context, t0 + C[i] * h, im->arg, im->g);
+            gi = im->g;
+        }
+        for (int j = 0; j < nq; ++j) {
+            k[j] = h * (gi[j] + im->sum[nq + j]);
+            im->rhs[j] = h * gi[nq + j];
+        }
+        solve_stage(im, 1, im->sum, im->sum + nq, k, k + nq, im->rhs);
+        for (int j = 2 * nq; j < ny; ++j) {
+            k[j] = h * gi[j];
+        }
+    }
+    for (int j = 0; j < ny; ++j) {
+        double y = y0[j], e = 0.0;
+        for (int i = 0; i < 4; ++i) {
+            y += B[i] * im->k[(size_t)i * ny + j];
+            e += (B[i] - BHAT[i]) * im->k[(size_t)i * ny + j];
+        }
+        rk->y1[j] = y;
+        rk->error[j] = e;
+        rk->K[j] = im->g0[j]; /* y' at the start; the work rows need no M^-1 */
+    }
+    /* the filter: W e_v' = M e_v - gamma h K e_q, e_q' = e_q + gamma h e_v' */
+    dep_envelope_times(&im->W, im->mass_envelope, rk->error + nq, im->rhs);
+    solve_stage(im, 1, NULL, NULL, rk->error, rk->error + nq, im->rhs);
+}
+
+void dep_implicit_response(dep_implicit *im, int count, const double *x,
+                           const double weight[4], double *dq, double *dqd)
+{
+    size_t n = (size_t)im->nq * (size_t)count;
+    double h = im->h;
+    double *zq = im->sum, *zv = im->sum + n;
+    for (int i = 0; i < 4; ++i) { /* stage i: kq, kv at dk + 2 n i */
+        double *kq = im->dk + 2 * n * (size_t)i, *kv = kq + n;
+        for (size_t j = 0; j < 2 * n; ++j) {
+            double z = 0.0;
+            for (int m = 0; m < i; ++m) {
+                z += (ALPHA[i][m] + COUPLING[i][m]) * im->dk[2 * n * (size_t)m + j];
+            }
+            im->sum[j] = z;
+        }
+        for (size_t j = 0; j < n; ++j) {
+            kq[j] = h * zv[j];
+            im->block_rhs[j] = -h * weight[i] * x[j];
+        }
+        solve_stage(im, count, zq, zv, kq, kv, im->block_rhs);
+    }
+    for (size_t j = 0; j < n; ++j) {
+        double sq = 0.0, sv = 0.0;
+        for (int i = 0; i < 4; ++i) {
+            sq += B[i] * im->dk[2 * n * (size_t)i + j];
+            sv += B[i] * im->dk[2 * n * (size_t)i + n + j];
+        }
+        dq[j] = sq;
+        dqd[j] = sv;
+    }
+}
+
+#define POWER_ITERATIONS 100
+
+double dep_implicit_fastest(dep_implicit *im, const double *q)
+{
+    const dep_system *s = im->system;
+    int nq = im->nq;
+    double *x = im->arg, *y = im->g, rate = 0.0;
+    s->model->stiffness(q, s->p, im->K, im->D);
+    for (int j = 0; j < nq; ++j) {
+        x[j] = (j % 2 ? 1.0 : -1.0) * (1.0 + 0.1 * (j % 7)); /* rich in the fast modes */
+    }
+    for (int k = 0; k < POWER_ITERATIONS; ++k) { /* y = M^-1 K x, rate = x.K x / x.M x */
+        memset(im->rhs, 0, (size_t)nq * sizeof *im->rhs);
+        pattern_subtract(im, im->K, 1, x, im->rhs);
+        double kx = 0.0, norm = 0.0;
+        for (int j = 0; j < nq; ++j) {
+            im->rhs[j] = -im->rhs[j];
+            kx += x[j] * im->rhs[j];
+        }
+        dep_mass_solve(&s->mass, im->rhs, y);
+        dep_envelope_times(&im->W, im->mass_envelope, x, im->product);
+        double mx = 0.0;
+        for (int j = 0; j < nq; ++j) {
+            mx += x[j] * im->product[j];
+            norm = fmax(norm, fabs(y[j]));
+        }
+        rate = mx > 0.0 ? fmax(rate, kx / mx) : rate;
+        if (!(norm > 0.0)) {
+            break;
+        }
+        for (int j = 0; j < nq; ++j) {
+            x[j] = y[j] / norm;
+        }
+    }
+    return sqrt(rate);
+}

@@ -1,0 +1,153 @@
+"""The linearly implicit step for stiff elastic forces (runtime/c/rosenbrock.c, docs/method.md
+section 10), through the real pipeline with the C target.
+
+References: examples/two_link_flex.dep integrated with the explicit step (DOPRI 5(4), which
+resolves every mode) at tol 1e-10; beam theory for the cantilever. The explicit run agrees with
+an independent solver (scipy Radau on the augmented system, bench/beam_reference.py) to
+1.3e-7 rad over the full 5 s, so it is the converged solution of the same mesh here.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import depsim
+from depsim.runtime.results import Stats
+
+MODEL = Path(__file__).resolve().parents[2] / "examples" / "two_link_flex.dep"
+SPAN = 0.5  # s
+DT_OUT = 0.001  # s
+
+RIGID = """\
+model rigid_pair
+gravity = (0, -9.81) m/s^2
+bar link { length = 1 m; mass = 5 kg; inertia = (5/12) kg*m^2 }
+hinge pin joins ground.origin to link.a { angle = link - ground + 90 deg }
+initial { pin = 5 deg }
+simulate { t_end = 0.1 s; tol = 1e-8; dt_out = 0.01 s }
+"""
+
+# An exact clamp (a slider along the beam's axis) and a stiff beam: EA / EI = 1e4 m^-2 puts
+# the axial modes 70 times above the first bending mode.
+CANTILEVER = """\
+model cantilever "clamped beam released in gravity"
+gravity = (0, -9.81) m/s^2
+beam arm { length = 1 m; EI = 100 N*m^2; EA = 1e6 N; mass_per_length = 1 kg/m; elements = 4 }
+slider clamp joins ground.origin to arm.a { axis = (1, 0) }
+simulate { t_end = 0.45 s; tol = 1e-8; dt_out = 0.001 s }
+output deflection = arm.tip_deflection
+"""
+CANTILEVER_ROOT = 1.8751040687119611  # cos b cosh b = -1
+
+
+@pytest.fixture(scope="module")
+def pendulum(tmp_path_factory):
+    """two_link_flex (two elements per link), C target, and its explicit reference run."""
+    sim = depsim.load(MODEL).compile(target="c", out_dir=tmp_path_factory.mktemp("m2"))
+    reference = sim.run(t_end=SPAN, dt_out=DT_OUT, tol=1e-10, stepping="explicit")
+    return sim, reference
+
+
+def run(sim, tol, stepping):
+    return sim.run(t_end=SPAN, dt_out=DT_OUT, tol=tol, stepping=stepping)
+
+
+def worst(result, reference, name):
+    return float(np.max(np.abs(result.output(name) - reference.output(name))))
+
+
+def test_auto_takes_the_implicit_step_only_where_the_explicit_one_is_stability_bound(pendulum):
+    """At tol 1e-8 DOPRI's step would sit at the axial modes' stability bound (h omega_max ~ 1,
+    omega_max = 6.5e4 rad/s): auto switches within the first steps and says so. At tol 1e-10
+    accuracy holds the explicit step far below that bound, and it stays explicit."""
+    sim, _ = pendulum
+    switched = run(sim, 1e-8, "auto")
+    assert 0.0 < switched.stats.implicit_from < 1e-3
+    # the rate that held it: the axial modes' (omega_max, or Hairer's estimate if larger)
+    assert 0.95 * 6.5e4 < switched.stats.stiff_rate < 2 * 6.5e4
+    assert "linearly implicit steps from t = " in switched.report_text
+    accurate = run(sim, 1e-10, "auto")
+    assert accurate.stats.implicit_from is None
+    assert "linearly implicit" not in accurate.report_text
+    forced = run(sim, 1e-8, "implicit")
+    assert forced.stats.implicit_from == 0.0 and forced.stats.stiff_rate is None
+    assert "linearly implicit steps throughout" in forced.report_text
+    assert run(sim, 1e-8, "explicit").stats.implicit_from is None
+    assert Stats().implicit_from is None
+
+
+def test_the_implicit_steps_error_falls_with_tol(pendulum):
+    """chord2 and tip2 against the explicit reference: the error falls as tol falls (measured
+    chord2 2.7e-6, 1.1e-6, 2.1e-8 rad and tip2 6.9e-5, 2.6e-5, 3.1e-7 m at tol 1e-6, 1e-8,
+    1e-10), and at the model's tol 1e-8 it is inside the accuracy asked of a 16-element run
+    against the converged solution (2e-5 rad, 1e-4 m raw)."""
+    sim, reference = pendulum
+    errors = {tol: run(sim, tol, "implicit") for tol in (1e-6, 1e-8, 1e-10)}
+    chord = {tol: worst(r, reference, "chord2") for tol, r in errors.items()}
+    tip = {tol: worst(r, reference, "tip2") for tol, r in errors.items()}
+    assert chord[1e-6] > chord[1e-8] > 10 * chord[1e-10]
+    assert tip[1e-6] > tip[1e-8] > 10 * tip[1e-10]
+    assert chord[1e-8] < 2e-5 and tip[1e-8] < 1e-4
+    assert chord[1e-10] < 1e-7 and tip[1e-10] < 1e-6
+    for result in errors.values():  # the position level holds at every step (|v| <=
+        # constraint_tol (1 + |q|), |q| <= 2 m here)
+        assert result.stats.max_v_pos <= 3 * result.constraint_tol
+
+
+def test_the_implicit_step_only_damps(pendulum):
+    """The undamped pendulum's energy (kinetic + gravity + elastic). The L-stable step damps
+    the modes it does not resolve, so the energy may only fall: it never rises above its
+    start by more than round-off, and the loss shrinks with tol (measured 6.1e-4, 8.5e-5,
+    1.5e-5 of the largest kinetic energy at tol 1e-8, 1e-9, 1e-10). The explicit step keeps
+    it to 1e-4 of it (tests/examples/test_two_link_flex.py)."""
+    sim, _ = pendulum
+    losses = []
+    for tol in (1e-8, 1e-9, 1e-10):
+        result = run(sim, tol, "implicit")
+        total, kinetic = result.total_energy(), result.energy[:, 0]
+        assert np.max(total - total[0]) <= 1e-9 * kinetic.max()
+        losses.append(np.max(total[0] - total) / kinetic.max())
+    assert losses[0] < 2e-3
+    assert losses[0] > losses[1] > losses[2]
+
+
+def test_numpy_and_c_take_the_same_implicit_steps(tmp_path):
+    """The one integrator drives either target: the same steps, outputs to round-off."""
+    model = depsim.load(MODEL)
+    runs = [model.compile(target=target, out_dir=tmp_path / target).run(
+        t_end=0.02, dt_out=DT_OUT, stepping="implicit") for target in ("numpy", "c")]
+    assert runs[0].stats.accepted_steps == runs[1].stats.accepted_steps
+    for name in ("chord2", "tip2"):
+        assert np.max(np.abs(runs[0].output(name) - runs[1].output(name))) < 1e-12
+
+
+def test_a_stiff_cantilever_vibrates_at_beam_theory_frequency(tmp_path):
+    """Released undeformed, the clamped beam swings about its static sag w L^4 / (8 EI) at
+    beam theory's first frequency; its axial modes (about 7,800 rad/s) are left to the
+    implicit step. Four elements: the element's own frequency error is 5e-5."""
+    path = tmp_path / "cantilever.dep"
+    path.write_text(CANTILEVER, encoding="utf-8")
+    result = depsim.load(path).compile(target="c", out_dir=tmp_path / "c").run(
+        stepping="implicit")
+    deflection = -result.output("deflection")
+    times = result.times
+    centred = deflection - deflection.mean()
+    crossings = np.nonzero(np.sign(centred[1:]) != np.sign(centred[:-1]))[0]
+    omega = math.pi / np.mean(np.diff(times[crossings]))
+    assert omega == pytest.approx(CANTILEVER_ROOT ** 2 * 10.0, rel=5e-3)
+    assert deflection.mean() == pytest.approx(9.81 / (8 * 100.0), rel=0.05)
+
+
+def test_implicit_stepping_needs_stiff_forces(tmp_path):
+    path = tmp_path / "rigid.dep"
+    path.write_text(RIGID, encoding="utf-8")
+    sim = depsim.load(path).compile(target="c", out_dir=tmp_path / "c")
+    with pytest.raises(ValueError, match="stepping implicit needs stiff forces"):
+        sim.run(stepping="implicit")
+    with pytest.raises(ValueError, match="stepping must be one of auto, explicit, implicit"):
+        sim.run(stepping="euler")
+    assert sim.run().stats.implicit_from is None
