@@ -44,6 +44,18 @@ def test_unknown_parameter_and_bad_value_are_usage_errors(cli, tmp_path):
     assert "Traceback" not in done.stderr
 
 
+def test_stepping_is_checked_before_anything_is_written(cli, tmp_path):
+    """--stepping implicit needs stiff forces (a model with beams); a name that is not one
+    of the three is argparse's usage error."""
+    out = tmp_path / "p.csv"
+    done = cli("run", EXAMPLES / "pendulum.dep", "--stepping", "implicit", "-o", out)
+    assert done.returncode == 2 and "stepping implicit needs stiff forces" in done.stderr
+    done = cli("run", EXAMPLES / "pendulum.dep", "--stepping", "euler", "-o", out)
+    assert done.returncode == 2 and "invalid choice: 'euler'" in done.stderr
+    assert "Traceback" not in done.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_solver_failure_exits_3_names_the_joint_and_writes_nothing(cli, tmp_path):
     # rod as long as the crank: the slider-crank starts at its dead point
     out = tmp_path / "sc.csv"
