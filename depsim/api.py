@@ -265,6 +265,13 @@ def sweep(sim: Simulator, *, grid=None, samples=None, runs=None, seed=None, metr
     See docs/api.md."""
     from depsim.runtime import sweep as studies
 
+    structural = {s.name: s.value for s in sim.model.ir.structural}
+    for spec in (grid, samples):  # a string, strings, or a mapping name -> text
+        items = [spec] if isinstance(spec, str) else list(spec or ())
+        for item in items:
+            name = item.split("=", 1)[0].strip() if isinstance(item, str) else None
+            if name in structural:  # a loop bound or index: one model per value
+                raise UsageError(fixed_message(name, structural[name]))
     index = {name: i for i, name in enumerate(sim.parameter_names)}
 
     def quantity(name: str, text: str) -> float:

@@ -91,6 +91,11 @@ def test_set_reaches_indexed_names_and_refuses_the_structural_n(deployed):
     assert "param N = 12" in structural.stderr
     unknown = _run(cache, "run", MODEL, "--target", "c", "--set", "panel[13].mass=2")
     assert unknown.returncode == 2 and "did you mean 'panel[3].mass'" in unknown.stderr
+    for item in (("--grid", "N=4:8:3"), ("--sample", "N=uniform(4,8)", "--runs", "2")):
+        study = _run(cache, "sweep", MODEL, *item, "-o", cache / "study.nc")
+        assert study.returncode == 2, study.stderr
+        assert "'N' is a structural parameter" in study.stderr
+        assert "Traceback" not in study.stderr and not (cache / "study.nc").exists()
 
 
 def test_check_lists_n_as_structural():
