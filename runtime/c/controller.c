@@ -100,11 +100,13 @@ static void basis(const double *u, int n, double at, double *w)
 
 /* The profile of a step of size h from the last accepted point: after a (re)start with one
    accepted multiplier, linear; with more, the polynomial through all but the oldest of them
-   (so that the oldest measures its error, dep_interpolation_error), up to a cubic. */
-void dep_profile_set(dep_profile *profile, const dep_history *history, double h)
+   (so that the oldest measures its error, dep_interpolation_error), up to `most` nodes (a
+   polynomial of that degree; at most DEP_PROFILE_NODES, a cubic). */
+void dep_profile_set(dep_profile *profile, const dep_history *history, double h, int most)
 {
     int n = history->count, nodes = n == 1 ? 1 : n - 1;
     double t0 = history->t[n - 1], w[DEP_PROFILE_NODES + 1];
+    nodes = nodes < most ? nodes : most;
     nodes = nodes < DEP_PROFILE_NODES ? nodes : DEP_PROFILE_NODES;
     profile->t0 = t0;
     profile->h = h;
@@ -229,12 +231,13 @@ double dep_interpolation_error(const dep_profile *profile, const dep_history *hi
                                const double *J1, const dep_multipliers *mp,
                                const double *scale_q, int nq, double *scratch, int *order)
 {
-    int nc = history->nc, n = history->count, points = n + 1;
+    int nc = history->nc, used = profile->nodes + 1, first = history->count - used;
+    int points = used + 1; /* the profile's nodes, the point before them, and lam1 */
     *order = profile->nodes + 3;
     if (nc == 0) {
         return 0.0;
     }
-    if (n < 2 || points != profile->nodes + 2) {
+    if (history->count < 2 || first < 0) {
         for (int i = 0; i < nc; ++i) {
             scratch[i] = lam1[i] - lam_position[i];
         }
@@ -242,12 +245,12 @@ double dep_interpolation_error(const dep_profile *profile, const dep_history *hi
                                scale_q, scratch + nc);
     }
     double times[DEP_HISTORY + 1], *table = scratch, *column = scratch + (size_t)nc * points;
-    for (int k = 0; k < n; ++k) {
-        times[k] = history->t[k];
-        memcpy(table + (size_t)k * nc, history->lam[k], (size_t)nc * sizeof *table);
+    for (int k = 0; k < used; ++k) {
+        times[k] = history->t[first + k];
+        memcpy(table + (size_t)k * nc, history->lam[first + k], (size_t)nc * sizeof *table);
     }
-    times[n] = profile->t0 + profile->h;
-    memcpy(table + (size_t)n * nc, lam1, (size_t)nc * sizeof *table);
+    times[used] = profile->t0 + profile->h;
+    memcpy(table + (size_t)used * nc, lam1, (size_t)nc * sizeof *table);
     for (int level = 1; level < points; ++level) { /* divided differences, in place */
         for (int k = points - 1; k >= level; --k) {
             double span = times[k] - times[k - level];

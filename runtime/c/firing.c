@@ -144,7 +144,7 @@ static int retake(dep_run *run, const dep_event *event, double *t_event, const d
         double h = *t_event - prior->t, shift;
         dep_failure failure;
         dep_profile profile;
-        dep_profile_set(&profile, &run->history, h);
+        dep_profile_set(&profile, &run->history, h, run->profile_nodes);
         dep_history_predict(&run->history, &profile, run->predicted);
         int status = dep_step(&run->stepper, prior, &profile, run->predicted, &run->fired,
                               &failure);

@@ -240,7 +240,7 @@ typedef struct dep_profile {
 int dep_history_init(dep_history *history, int capacity, dep_arena *arena);
 void dep_history_reset(dep_history *history, double t, const double *lam, int nc);
 void dep_history_add(dep_history *history, double t, const double *lam);
-void dep_profile_set(dep_profile *profile, const dep_history *history, double h);
+void dep_profile_set(dep_profile *profile, const dep_history *history, double h, int most);
 void dep_profile_hold(dep_profile *profile, double t0, const double *lam);
 void dep_profile_value(const dep_profile *profile, const double *lam_end, double t, int nc,
                        double *out);

@@ -56,6 +56,7 @@ struct dep_run { /* typedef in depsim.h */
     double implicit_from, stiff_rate; /* when the linearly implicit step took over, and why */
     double omega_max;                 /* the stiff forces' fastest mode (rad/s), 0: unknown */
     int bound_steps;                  /* accepted steps in a row with h omega_max > bound */
+    int profile_nodes;                /* the multipliers' profile's most nodes (its degree) */
     dep_active_rows state_rows, dense_rows;
     dep_event_record *records;
     int n_records, records_capacity;
