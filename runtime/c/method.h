@@ -348,6 +348,9 @@ int dep_acceleration(dep_stepper *stepper, const double *q, const double *qd, do
                      dep_pass_report *report, dep_failure *failure);
 
 
+/* Room for the linearly implicit step (done by dep_stepper_init for a model with stiff
+   forces; with none, its T is the kinematic part alone: still a W-method of order 3). */
+int dep_stepper_prepare_implicit(dep_stepper *stepper, dep_arena *arena);
 /* The multipliers' G of the last step's pass (DEP_POSITION, DEP_VELOCITY), M^-1 otherwise. */
 void dep_stepper_use_mobility(dep_stepper *stepper, int stage);
 int dep_step(dep_stepper *stepper, const dep_state *state, const dep_profile *profile,

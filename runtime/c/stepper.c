@@ -113,13 +113,20 @@ int dep_stepper_init(dep_stepper *stepper, const dep_system *system, dep_constra
     stepper->dqd = dep_doubles(arena, (size_t)nq);
     stepper->column = dep_doubles(arena, (size_t)nq);
     stepper->implicit = 0;
-    if (system->model->nkz > 0) {
-        if (dep_implicit_init(&stepper->im, system, ny, arena) != DEP_OK) {
-            return DEP_MEMORY_ERROR;
-        }
-        stepper->slot = dep_bytes(arena, (size_t)nq * sizeof *stepper->slot);
-        stepper->columns = dep_doubles(arena, 2 * (size_t)nq * (size_t)nq);
+    if (system->model->nkz > 0 && dep_stepper_prepare_implicit(stepper, arena) != DEP_OK) {
+        return DEP_MEMORY_ERROR;
     }
+    return arena->failed ? DEP_MEMORY_ERROR : DEP_OK;
+}
+
+int dep_stepper_prepare_implicit(dep_stepper *stepper, dep_arena *arena)
+{
+    int nq = stepper->nq;
+    if (dep_implicit_init(&stepper->im, stepper->system, stepper->ny, arena) != DEP_OK) {
+        return DEP_MEMORY_ERROR;
+    }
+    stepper->slot = dep_bytes(arena, (size_t)nq * sizeof *stepper->slot);
+    stepper->columns = dep_doubles(arena, 2 * (size_t)nq * (size_t)nq);
     return arena->failed ? DEP_MEMORY_ERROR : DEP_OK;
 }
 

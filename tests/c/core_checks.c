@@ -71,7 +71,7 @@ static int iteration(double h)
     }
     double *zero = calloc((size_t)x.cs.capacity, sizeof *zero);
     dep_profile profile;
-    dep_profile_set(&profile, &x.history, h);
+    dep_profile_set(&profile, &x.history, h, DEP_PROFILE_NODES);
     if (zero == NULL
         || dep_step(&x.stepper, &x.state, &profile, zero, &x.outcome, &failure) != DEP_OK) {
         return fail("step");
@@ -90,13 +90,21 @@ static int iteration(double h)
     return 0;
 }
 
-static int fixed(int n, double t_end)
+/* n fixed steps to t_end; implicit: with the linearly implicit step and its quadratic
+   profile (the model's T is then whatever stiff forces it has, none for a rigid one). */
+static int fixed(int n, double t_end, int implicit)
 {
     parts x;
     dep_failure failure;
-    int nq = depsim_model.nq;
+    int nq = depsim_model.nq, nodes = implicit ? 2 : DEP_PROFILE_NODES;
     if (start(&x, 1e-14) != 0) {
         return 1;
+    }
+    if (implicit) {
+        if (dep_stepper_prepare_implicit(&x.stepper, &x.arena) != DEP_OK) {
+            return fail("implicit setup");
+        }
+        x.stepper.implicit = 1;
     }
     double h = t_end / n, *predicted = calloc((size_t)x.cs.capacity, sizeof *predicted);
     if (predicted == NULL) {
@@ -104,7 +112,7 @@ static int fixed(int n, double t_end)
     }
     for (int k = 0; k < n; ++k) {
         dep_profile profile;
-        dep_profile_set(&profile, &x.history, h);
+        dep_profile_set(&profile, &x.history, h, nodes);
         dep_history_predict(&x.history, &profile, predicted);
         if (dep_step(&x.stepper, &x.state, &profile, predicted, &x.outcome, &failure)
             != DEP_OK) {
@@ -210,7 +218,10 @@ int main(int argc, char **argv)
         return iteration(atof(argv[2]));
     }
     if (argc == 4 && strcmp(argv[1], "fixed") == 0) {
-        return fixed(atoi(argv[2]), atof(argv[3]));
+        return fixed(atoi(argv[2]), atof(argv[3]), 0);
+    }
+    if (argc == 4 && strcmp(argv[1], "fixed_implicit") == 0) {
+        return fixed(atoi(argv[2]), atof(argv[3]), 1);
     }
     if (argc == 4 && strcmp(argv[1], "project") == 0) {
         return project(atoi(argv[2]), atoi(argv[3]));

@@ -108,6 +108,22 @@ def test_observed_order_of_convergence_is_five(checks):
     assert abs(observed[-1] - 5) < 0.3, observed
 
 
+def test_observed_order_of_the_linearly_implicit_step_is_three(checks):
+    """ROS34PW2 under the multiplier iteration, with its quadratic profile (docs/method.md,
+    10): a W-method of order 3 whatever its Jacobian, here the pendulum's kinematic part alone
+    (a rigid model has no stiff forces). The profile's own error is O(h^4) globally, so the
+    step's order shows (measured 3.03, 3.01, 3.007). A wrong coefficient or stage term drops
+    it to 2 or less."""
+    theta, omega = pendulum_reference(1.0)
+    errors = []
+    for n in (50, 100, 200, 400):
+        values = [float(v) for v in checks("pendulum")("fixed_implicit", n, 1.0).split()]
+        phi, phi_rate = values[2], values[5]
+        errors.append(max(abs(phi + np.pi / 2 - theta), abs(phi_rate - omega)))
+    observed = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
+    assert abs(observed[-1] - 3) < 0.3, observed
+
+
 def test_step_interpolant_is_exact_for_quintics_with_the_prior_point(checks):
     """q on the quintic Hermite interpolant of the step's ends; qd on the quintic Hermite
     interpolant of (qd, qdd) at the prior point and the ends (cubic without the prior point):
