@@ -136,15 +136,17 @@ def _cache_dir(model: ir.Model, target: str) -> tuple[Path, str]:
 
 @functools.cache
 def _generator_digest() -> str:
-    """SHA-256 of the code generator's files and the model interface (without importing
-    them: sympy stays unloaded)."""
+    """SHA-256 of the code generator's files, the model interface and the integrator core's C
+    sources, which a C folder carries (without importing them: sympy stays unloaded)."""
     import importlib.util
 
     digest = hashlib.sha256()
     for package in ("depsim.codegen", "depsim.runtime"):
         folder = Path(importlib.util.find_spec(package).submodule_search_locations[0])
-        files = sorted(folder.glob("templates/**/*.j2")) + sorted(folder.glob("*.py")) \
-            if package == "depsim.codegen" else [folder / "interface.py"]
+        if package == "depsim.codegen":
+            files = sorted(folder.glob("templates/**/*.j2")) + sorted(folder.glob("*.py"))
+        else:
+            files = [folder / "interface.py"] + sorted(folder.glob("c/*.[ch]"))
         for path in files:
             digest.update(path.name.encode() + b"\0" + path.read_bytes())
     return digest.hexdigest()

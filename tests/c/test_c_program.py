@@ -170,6 +170,7 @@ def test_program_writes_csv_to_stdout(made):
     (["--tol", "x"], "argument --tol: 'x' is not a number"),
     (["--dt-out"], "argument --dt-out: expected a value"),
     (["--bogus"], "unrecognized argument '--bogus'"),
+    (["--stepping", "rk4"], "argument --stepping: 'rk4' is not one of auto, explicit, implicit"),
     (["--tol", "0.5", "--dt-out", "1e-20", "--t-end", "1"], "asks for 1e+20 output times"),
 ])
 def test_usage_errors_exit_2(made, arguments, message):
@@ -177,6 +178,18 @@ def test_usage_errors_exit_2(made, arguments, message):
     run = subprocess.run([str(program), *arguments], capture_output=True, text=True, env={})
     assert run.returncode == 2, run.stderr
     assert message in run.stderr
+
+
+def test_stepping_implicit_needs_stiff_forces(made):
+    """The slider-crank has no beams: forcing the linearly implicit step is refused as a
+    setting, as simulate(stepping="implicit") refuses it; explicit runs."""
+    _, _, program = made
+    run = subprocess.run([str(program), "--stepping", "implicit"], capture_output=True,
+                         text=True, env={})
+    assert run.returncode == 2 and "stepping implicit needs stiff forces" in run.stderr
+    run = subprocess.run([str(program), "--stepping", "explicit", "--t-end", "0.01"],
+                         capture_output=True, text=True, env={})
+    assert run.returncode == 0, run.stderr
 
 
 def test_solver_failure_exits_3_with_the_python_message(made):

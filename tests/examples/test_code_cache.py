@@ -58,3 +58,24 @@ def test_run_says_when_it_reused_the_code(cli, tmp_path: Path, monkeypatch):
     assert first.returncode == second.returncode == 0, first.stderr + second.stderr
     assert "code: derived and generated" in first.stdout
     assert "code: reused from the cache" in second.stdout
+
+
+def test_the_key_covers_the_core_sources_a_c_folder_carries(monkeypatch):
+    """A C folder carries the integrator core's sources (main.c, the solver): a change to any
+    of them makes a new cache entry, so `depsim compile` never copies a stale core."""
+    import depsim.api as api
+
+    api._generator_digest.cache_clear()
+    before = api._generator_digest()
+    original = Path.read_bytes
+
+    def edited(path: Path) -> bytes:
+        data = original(path)
+        return data + b"/* edited */\n" if path.name == "stepper.c" else data
+
+    monkeypatch.setattr(Path, "read_bytes", edited)
+    api._generator_digest.cache_clear()
+    try:
+        assert api._generator_digest() != before
+    finally:
+        api._generator_digest.cache_clear()
