@@ -1,17 +1,20 @@
-"""The initial state: forward kinematics along Model.placements.
+"""The initial state: forward kinematics along Model.placements, as a program of local steps.
 
 Members no joint path reaches from the ground (the checker warns, W001) start at the origin:
 a body with its centre of mass there at angle 0, a beam with end a there along +x, at rest.
 Each placement puts its child member so that the joint's two attachment points coincide (a
 hinge, turned by its initial angle) or lie `initial_position` apart along the axis (a slider,
-whose child keeps its parent's angle). Every joint's initial value enters as an auxiliary
-symbol first, so that qd0 = sum_k (dq0/dvalue_k) rate_k; the symbols are then replaced by the
-joints' initial values (expressions of p). Kept as symbols, they make the tree pose q(v) and its
-Jacobian, from which the integrator core assembles closed loops (docs/language.md, Assembly)."""
+whose child keeps its parent's angle). Every joint's value enters as a symbol v_k, so that the
+tree pose q(v) places each member from its parent's coordinates and its joint's value: one
+step per member, each a few terms, so a chain of n members costs O(n) code where the pose
+written out in v would cost O(n^2) (and its Jacobian O(n^3)). The velocities follow by forward
+differentiation of the same steps, qd_child = sum_u d local / d u * u', u the parent's
+coordinates and the joint's value. The integrator core assembles closed loops from the pose
+and these tangents (docs/language.md, Assembly)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import sympy
 
@@ -19,57 +22,77 @@ from depsim.dsl import ir
 
 from .kinematics import Kinematics, Vector, rotate
 
-Pose = dict[sympy.Symbol, sympy.Expr]
+Step = tuple[sympy.Symbol, sympy.Expr]  # symbol := expression of earlier symbols, v and p
+Group = tuple[Step, ...]  # one member's steps (no step refers to a symbol of its own group)
 
 
 @dataclass(frozen=True)
 class Assembly:
-    """The initial state as expressions of p: q0, qd0 (NQ each) and each beam's angle (rad);
-    the tree joints (placement order) with their value symbols v, the pose q(v) over them,
-    their initial values v0 and rates vd0 (expressions of p) and what the user gave (held)."""
+    """The tree placement: the tree joints (placement order) with their value symbols v and
+    rate symbols vd, their initial values v0 and rates vd0 (expressions of p) and what the user
+    gave (held); `pose`: per member, its coordinates q_j := local(earlier q, v, p); `tangent`:
+    per member, qd_j := d local / d(earlier q, v) . (earlier qd, vd), in the same order.
+    `start` holds each coordinate's local expression, for `at_start`."""
 
-    q0: tuple[sympy.Expr, ...]
-    qd0: tuple[sympy.Expr, ...]
-    beam_angles: tuple[sympy.Expr, ...]
     tree_joints: tuple[str, ...]
     v: tuple[sympy.Symbol, ...]
-    pose: tuple[sympy.Expr, ...]
-    tree_jacobian: tuple[tuple[sympy.Expr, ...], ...]  # (NQ, NV): d pose / d v
+    vd: tuple[sympy.Symbol, ...]
     v0: tuple[sympy.Expr, ...]
     vd0: tuple[sympy.Expr, ...]
     held: tuple[int, ...]
+    pose: tuple[Group, ...]
+    tangent: tuple[Group, ...]
+    beam_angles: tuple[sympy.Expr, ...]  # each beam's initial angle (rad), an expression of p
+    local: dict[sympy.Symbol, sympy.Expr] = field(repr=False)
+
+    def at_start(self, expr: sympy.Expr) -> sympy.Expr:
+        """`expr` (of q and p) at the initial placement, as an expression of p: the placed
+        coordinates replaced by their local steps down to the joints' initial values."""
+        return _at_start(expr, self.local, dict(zip(self.v, self.v0)), {})
+
+
+def _at_start(expr: sympy.Expr, local: dict, initial: dict, memo: dict) -> sympy.Expr:
+    replace = {}
+    for s in expr.free_symbols:
+        if s in initial:
+            replace[s] = initial[s]
+        elif s in local:
+            if s not in memo:
+                memo[s] = _at_start(local[s], local, initial, memo)
+            replace[s] = memo[s]
+    return expr.xreplace(replace)
 
 
 @dataclass
 class _Placing:
-    """The assembly so far: placed coordinates, beam angles, joint values -> (value, rate),
-    and each placed coordinate's derivatives by the joint values (forward mode: a child's
-    from its parent's by the chain rule, so a chain of n members costs O(n^2) products
-    instead of O(n^2) derivatives of ever longer expressions)."""
+    """The placement so far: each placed coordinate's local expression and rate symbol, the
+    groups of steps, the beams' angles (local expressions), joint values -> (value, rate)."""
 
-    pose: Pose
-    beam_angles: dict[int, sympy.Expr]
-    values: dict[sympy.Symbol, tuple[sympy.Expr, sympy.Expr]]
-    jacobian: dict[sympy.Symbol, dict[sympy.Symbol, sympy.Expr]]
+    rates: dict[sympy.Symbol, sympy.Symbol]  # q -> qd, and v -> vd once the joint is placed
+    local: dict[sympy.Symbol, sympy.Expr] = field(default_factory=dict)
+    pose: list[Group] = field(default_factory=list)
+    tangent: list[Group] = field(default_factory=list)
+    beam_angles: dict[int, sympy.Expr] = field(default_factory=dict)
+    values: dict[sympy.Symbol, tuple[sympy.Expr, sympy.Expr]] = field(default_factory=dict)
 
-    def place(self, symbol: sympy.Symbol, local: sympy.Expr) -> None:
-        """Put coordinate `symbol` at `local`, an expression of placed coordinates and joint
-        values: its pose and its derivatives by every joint value."""
-        derivatives: dict[sympy.Symbol, sympy.Expr] = {}
-        for s in local.free_symbols:
-            if s not in self.values and s not in self.jacobian:
-                continue  # a parameter
-            partial = local.diff(s).xreplace(self.pose)
-            inner = {s: sympy.Integer(1)} if s in self.values else self.jacobian[s]
-            for v, d in inner.items():
-                derivatives[v] = derivatives.get(v, sympy.Integer(0)) + partial * d
-        self.pose[symbol] = local.xreplace(self.pose)
-        self.jacobian[symbol] = {v: d for v, d in derivatives.items() if d != 0}
+    def place(self, symbols, locals_) -> None:
+        """Put a member's coordinates `symbols` at `locals_`, expressions of placed
+        coordinates, joint values and parameters; and their rates by the chain rule."""
+        pose, tangent = [], []
+        for symbol, local in zip(symbols, locals_):
+            rate = sympy.Add(*(local.diff(u) * self.rates[u] for u in local.free_symbols
+                               if u in self.local or u in self.values))
+            pose.append((symbol, local))
+            tangent.append((self.rates[symbol], rate))
+        for symbol, local in pose:
+            self.local[symbol] = local
+        self.pose.append(tuple(pose))
+        self.tangent.append(tuple(tangent))
 
 
 def assemble(model: ir.Model, kin: Kinematics) -> Assembly:
-    """Pose, velocities and beam angles of the assembled initial state."""
-    state = _Placing({}, {}, {}, {})
+    """The tree placement of the model's members and its initial values."""
+    state = _Placing(dict(zip(kin.symbols.q, kin.symbols.qd)))
     for placement in model.placements:
         _place_at_origin(kin, placement.parent, state)
         if placement.kind is ir.JointKind.HINGE:
@@ -80,29 +103,27 @@ def assemble(model: ir.Model, kin: Kinematics) -> Assembly:
         _place_at_origin(kin, ir.Member(ir.MemberKind.BODY, index), state)
     for index in range(len(model.beams)):
         _place_at_origin(kin, ir.Member(ir.MemberKind.BEAM, index), state)
-    q0 = [state.pose[s] for s in kin.symbols.q]
-    values = tuple(state.values)
-    tree_jacobian = tuple(tuple(state.jacobian[s].get(v, sympy.Integer(0)) for v in values)
-                          for s in kin.symbols.q)
-    rates = [state.values[v][1] for v in values]
-    qd0 = [sympy.Add(*(d * rate for d, rate in zip(row, rates) if rate != 0))  # (0 * d asks
-           for row in tree_jacobian]                                           # sympy a lot)
-    initial = {v: value for v, (value, _) in state.values.items()}
-    angles = [state.beam_angles[i] for i in range(len(model.beams))]
     joints = [model.hinges[p.joint] if p.kind is ir.JointKind.HINGE else model.sliders[p.joint]
               for p in model.placements]
-    return Assembly(*(tuple(x.xreplace(initial) for x in column) for column in (q0, qd0, angles)),
-                    tree_joints=tuple(j.name for j in joints), v=values,
-                    pose=tuple(q0), tree_jacobian=tree_jacobian, v0=tuple(value for value, _ in state.values.values()),
+    v = tuple(state.values)
+    v0 = tuple(value for value, _ in state.values.values())
+    initial, memo = dict(zip(v, v0)), {}
+    return Assembly(tree_joints=tuple(j.name for j in joints), v=v,
+                    vd=tuple(state.rates[s] for s in v), v0=v0,
                     vd0=tuple(rate for _, rate in state.values.values()),
-                    held=tuple(j.held for j in joints))
+                    held=tuple(j.held for j in joints), pose=tuple(state.pose),
+                    tangent=tuple(state.tangent),
+                    beam_angles=tuple(_at_start(state.beam_angles[i], state.local, initial, memo)
+                                      for i in range(len(model.beams))),
+                    local=state.local)
 
 
 def _joint_value(kin: Kinematics, joint: ir.Hinge | ir.Slider, initial: ir.Expr,
                  state: _Placing) -> sympy.Symbol:
-    """An auxiliary symbol standing for the joint's initial angle or displacement."""
+    """The symbol standing for the joint's value (angle or displacement), and its rate's."""
     value = sympy.Symbol(f"{joint.name}@0")  # '@' keeps it apart from param names
     state.values[value] = (kin.const(initial), kin.const(joint.initial_rate))
+    state.rates[value] = sympy.Symbol(f"{joint.name}@rate")
     return value
 
 
@@ -115,7 +136,7 @@ def _sides(joint: ir.Hinge | ir.Slider, placement: ir.Placement):
 
 def _placed(kin: Kinematics, attachment: ir.Attachment, state: _Placing):
     """(world position, angle) of an attachment of an already placed member, in its placed
-    coordinates (a beam's angle in the joint values)."""
+    coordinates (a beam's angle as placed)."""
     position = tuple(kin.attachment_position(attachment))
     if attachment.member.kind is ir.MemberKind.BEAM:
         return position, state.beam_angles[attachment.member.index]
@@ -124,7 +145,7 @@ def _placed(kin: Kinematics, attachment: ir.Attachment, state: _Placing):
 
 def _place_hinge(kin: Kinematics, hinge: ir.Hinge, placement: ir.Placement,
                  state: _Placing) -> None:
-    """The child's attachment at the parent's, turned so that theta = its initial angle."""
+    """The child's attachment at the parent's, turned so that theta = the joint's value."""
     parent, child, child_is_b = _sides(hinge, placement)
     theta = _joint_value(kin, hinge, hinge.initial_angle, state)
     point, parent_angle = _placed(kin, parent, state)
@@ -151,8 +172,7 @@ def _place_member(kin: Kinematics, attachment: ir.Attachment, point: Vector,
     symbols = kin.member_symbols(member)
     if member.kind is ir.MemberKind.BODY:
         offset = rotate(angle, kin.local_point(member, attachment.point))
-        for symbol, local in zip(symbols, (point[0] - offset[0], point[1] - offset[1], angle)):
-            state.place(symbol, local)
+        state.place(symbols, (point[0] - offset[0], point[1] - offset[1], angle))
         return
     # an undeformed straight beam: its angle is the same at both ends
     start = point
@@ -160,19 +180,16 @@ def _place_member(kin: Kinematics, attachment: ir.Attachment, point: Vector,
         length = kin.const(kin.model.beams[member.index].length)
         start = (point[0] - length * sympy.cos(angle), point[1] - length * sympy.sin(angle))
     element = kin.beams[member.index]
-    for symbol, local in zip(symbols, element.initial_coordinates(start[0], start[1], angle)):
-        state.place(symbol, local)
-    state.beam_angles[member.index] = angle.xreplace(state.pose)
+    state.place(symbols, element.initial_coordinates(start[0], start[1], angle))
+    state.beam_angles[member.index] = angle
 
 
 def _place_at_origin(kin: Kinematics, member: ir.Member, state: _Placing) -> None:
     """Start a member not yet placed (the root of a floating tree) at the origin, angle 0."""
-    if member.kind is ir.MemberKind.GROUND or kin.member_symbols(member)[0] in state.pose:
+    if member.kind is ir.MemberKind.GROUND or kin.member_symbols(member)[0] in state.local:
         return
     zero = sympy.Integer(0)
-    point = ir.Attachment(member, "a", None) if member.kind is ir.MemberKind.BEAM else None
-    if point is None:
-        for symbol in kin.member_symbols(member):
-            state.place(symbol, zero)
+    if member.kind is ir.MemberKind.BODY:
+        state.place(kin.member_symbols(member), (zero, zero, zero))
     else:
-        _place_member(kin, point, (zero, zero), zero, state)
+        _place_member(kin, ir.Attachment(member, "a", None), (zero, zero), zero, state)

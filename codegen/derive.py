@@ -15,7 +15,7 @@ from sympy import ImmutableMatrix
 from depsim.dsl import ir
 from depsim.dsl.attributes import HINGE_PROPERTIES
 
-from .assembly import assemble
+from .assembly import Group, assemble
 from .errors import CodegenError
 from .expr import to_sympy
 from .kinematics import Coordinates, Kinematics
@@ -60,15 +60,14 @@ class SymbolicSystem:
     energy: ImmutableMatrix  # (NE, 1), J
     dissipator_names: tuple[str, ...]
     dissipation: ImmutableMatrix  # (ND, 1), W
-    q0: ImmutableMatrix  # (NQ, 1), a function of p
-    qd0: ImmutableMatrix  # (NQ, 1), a function of p
     tree_joints: tuple[str, ...]  # NV joints placing the members, in placement order
     tree_held: tuple[int, ...]  # NV: 1 value given, 2 rate given (held by the assembly)
     v: tuple[sympy.Symbol, ...]  # their values (rad or m)
+    vd: tuple[sympy.Symbol, ...]  # their rates
     tree_v0: ImmutableMatrix  # (NV, 1) given values, else 0; a function of p
     tree_vd0: ImmutableMatrix  # (NV, 1) given rates, else 0
-    tree_pose: ImmutableMatrix  # (NQ, 1) q placed along the tree, a function of v and p
-    tree_jacobian: ImmutableMatrix  # (NQ, NV)
+    tree_pose: tuple[Group, ...]  # per member: its q := expressions of earlier q, v and p
+    tree_tangent: tuple[Group, ...]  # per member: its qd := d pose / d(earlier q, v) . rates
     loop_angles: ImmutableMatrix  # (NH, 1) given initial angle of a loop-closing hinge, else nan
     loop_rates: ImmutableMatrix  # (NH, 1) its given rate, else nan
     stiffness_pattern: tuple[tuple[int, int], ...]  # NKZ structural non-zeros, row-major
@@ -108,9 +107,8 @@ def derive(model: ir.Model) -> SymbolicSystem:
     symbols, beams = build_coordinates(model)
     assembly = assemble(model, Kinematics(model, symbols, beams))
     kin = Kinematics(model, symbols, beams, assembly.beam_angles)
-    q0, qd0 = assembly.q0, assembly.qd0
     q, qd, t = symbols.q, column(symbols.qd), symbols.t
-    rows = _constraints(model, kin, q0)
+    rows = _constraints(model, kin, assembly.at_start)
     phi = column(residual for _, _, residual in rows)
     phi_q = jacobian(phi, q)
     phi_t = phi.diff(t)
@@ -134,11 +132,9 @@ def derive(model: ir.Model) -> SymbolicSystem:
         outputs=column(_output(o, kin) for o in model.outputs),
         energy_names=loads.energy_names, energy=column(loads.energies),
         dissipator_names=loads.dissipator_names, dissipation=column(loads.dissipation),
-        q0=column(q0), qd0=column(qd0), tree_joints=assembly.tree_joints,
-        tree_held=assembly.held, v=assembly.v, tree_v0=column(assembly.v0),
-        tree_vd0=column(assembly.vd0), tree_pose=column(assembly.pose),
-        tree_jacobian=ImmutableMatrix(assembly.tree_jacobian) if assembly.v
-        else ImmutableMatrix.zeros(len(q), 0),
+        tree_joints=assembly.tree_joints, tree_held=assembly.held, v=assembly.v,
+        vd=assembly.vd, tree_v0=column(assembly.v0), tree_vd0=column(assembly.vd0),
+        tree_pose=assembly.pose, tree_tangent=assembly.tangent,
         loop_angles=_loop_targets(model, kin, 1), loop_rates=_loop_targets(model, kin, 2),
         stiffness_pattern=loads.stiffness.pattern, stiffness=column(loads.stiffness.K),
         stiffness_damping=column(loads.stiffness.D),
@@ -169,19 +165,19 @@ def _output(output: ir.Output, kin: Kinematics) -> sympy.Expr:
     return expr
 
 
-def _constraints(model: ir.Model, kin: Kinematics, q0: tuple[sympy.Expr, ...]):
-    """(row name, joint name, residual) of every constraint row, hinges then sliders."""
+def _constraints(model: ir.Model, kin: Kinematics, at_start):
+    """(row name, joint name, residual) of every constraint row, hinges then sliders
+    (`at_start`: an expression at the initial placement, for a slider's relative angle)."""
     rows = []
     for hinge in model.hinges:
         ra, rb = kin.attachment_position(hinge.a), kin.attachment_position(hinge.b)
         rows += [(f"{hinge.name}.x", hinge.name, ra[0] - rb[0]),
                  (f"{hinge.name}.y", hinge.name, ra[1] - rb[1])]
-    initial = dict(zip(kin.symbols.q, q0))
     for index, slider in enumerate(model.sliders):
         (ux, uy), (dx, dy) = kin.slider_axis(index), kin.slider_offset(index)
         relative = kin.attachment_angle(slider.b) - kin.attachment_angle(slider.a)
         rows += [(f"{slider.name}.normal", slider.name, ux * dy - uy * dx),
-                 (f"{slider.name}.angle", slider.name, relative - relative.xreplace(initial))]
+                 (f"{slider.name}.angle", slider.name, relative - at_start(relative))]
     return rows
 
 

@@ -15,6 +15,7 @@ from depsim.dsl import ir
 from depsim.dsl.attributes import HINGE_PROPERTIES
 from depsim.runtime import interface
 
+from .assembly import Group
 from .derive import SymbolicSystem, column
 from .printing import LoweringError, SlotPrinter
 
@@ -99,16 +100,20 @@ class FunctionSpec:
     summary: str
     results: tuple[tuple[str, sympy.MatrixBase], ...]
     flatten: bool = True  # (n, 1) columns become 1-d arrays
+    steps: tuple[Group, ...] = ()  # symbols defined in order before the results (a program)
 
 
 def function_specs(system: SymbolicSystem) -> tuple[FunctionSpec, ...]:
     """The model functions of the interface (depsim.runtime.interface.FUNCTIONS: names,
     arguments, results, summaries), each with the system's matrices for its results."""
     s = system
+    q, qd = column(s.q), column(s.qd)
+    placed = tuple(g for pair in zip(s.tree_pose, s.tree_tangent) for g in pair)
+    start = (tuple(zip(s.v, s.tree_v0)) + tuple(zip(s.vd, s.tree_vd0)),) if s.v else ()
+    steps = {"initial_state": start + placed, "tree_pose": s.tree_pose, "tree_tangent": placed}
     matrices = {
-        "mass_matrix": (s.mass_matrix,), "initial_state": (s.q0, s.qd0),
-        "tree_values": (s.tree_v0, s.tree_vd0), "tree_pose": (s.tree_pose,),
-        "tree_jacobian": (s.tree_jacobian,),
+        "mass_matrix": (s.mass_matrix,), "initial_state": (q, qd),
+        "tree_values": (s.tree_v0, s.tree_vd0), "tree_pose": (q,), "tree_tangent": (qd,),
         "loop_targets": (s.loop_angles, s.loop_rates), "phi": (s.phi,),
         "phi_q": (column(s.phi_q[i, j] for i, j in s.phi_q_pattern),), "phi_t": (s.phi_t,),
         "gamma": (s.gamma,), "force": (s.force,), "hinge_angles": (s.hinge_angles,),
@@ -119,13 +124,14 @@ def function_specs(system: SymbolicSystem) -> tuple[FunctionSpec, ...]:
     }
     return tuple(FunctionSpec(f.name, f.args, f.summary,
                               tuple((r.name, m) for r, m in zip(f.results, matrices[f.name])),
-                              flatten=len(f.results[0].shape) == 1)
+                              flatten=len(f.results[0].shape) == 1,
+                              steps=steps.get(f.name, ()))
                  for f in interface.FUNCTIONS)
 
 
 def slots(system: SymbolicSystem, args: tuple[str, ...]) -> dict[sympy.Symbol, str]:
     """Input symbol -> array slot text (`q[3]`, `p[7]`, `t`) for a function's arguments."""
-    arrays = {"v": system.v, "q": system.q, "qd": system.qd, "p": system.p}
+    arrays = {"v": system.v, "vd": system.vd, "q": system.q, "qd": system.qd, "p": system.p}
     table = {system.t: "t"} if "t" in args else {}
     for name in args:
         table.update({s: f"{name}[{i}]" for i, s in enumerate(arrays.get(name, ()))})
@@ -141,12 +147,16 @@ IEEE_FUNCTIONS = ("outputs",)
 
 def lower_function(system: SymbolicSystem, spec: FunctionSpec,
                    printer: PrinterFactory) -> FunctionView:
-    """CSE the function's non-zero entries together and print them through `printer`."""
+    """CSE the function's non-zero entries together and print them through `printer`; a
+    function with steps computes them first (`_program`)."""
     assert tuple(a for a in ARGUMENT_ORDER if a in spec.args) == spec.args, spec.args
     places = [(r, i, j) for r, (_, matrix) in enumerate(spec.results)
               for i in range(matrix.rows) for j in range(matrix.cols) if matrix[i, j] != 0]
     exprs = [spec.results[r][1][i, j] for r, i, j in places]
-    definitions, reduced = sympy.cse(exprs, symbols=sympy.numbered_symbols("x"))
+    names = sympy.numbered_symbols("x")
+    program, exprs = _program(spec.steps, exprs, names)
+    definitions, reduced = sympy.cse(exprs, symbols=names)
+    definitions = program + definitions
     inputs = slots(system, spec.args)
     _check_inputs(spec.name, definitions, reduced, inputs)
     print_ = printer(inputs, [name for name, _ in definitions]).doprint
@@ -160,6 +170,48 @@ def lower_function(system: SymbolicSystem, spec: FunctionSpec,
                     for (name, matrix), found in zip(spec.results, entries))
     return FunctionView(spec.name, spec.args, spec.summary, temporaries, results,
                         spec.name in IEEE_FUNCTIONS)
+
+
+def _program(steps: tuple[Group, ...], exprs: list[sympy.Expr], names
+             ) -> tuple[list[tuple[sympy.Symbol, sympy.Expr]], list[sympy.Expr]]:
+    """The steps the results need, as temporaries in order (each step's symbol renamed s<k>,
+    the CSE of a window of groups before it), and the results in those names. A window
+    gathers consecutive groups while none refers to a symbol defined in it, so each member's
+    few terms share their sines and cosines with its neighbours' without one CSE over the
+    whole tree."""
+    needed = set().union(*(e.free_symbols for e in exprs))
+    kept: list[Group] = []
+    for group in reversed(steps):  # only what the results need, so no C variable is unused
+        group = tuple(step for step in group if step[0] in needed)
+        if group:
+            kept.append(group)
+            needed |= set().union(*(value.free_symbols for _, value in group))
+    kept.reverse()
+    rename: dict[sympy.Symbol, sympy.Expr] = {}
+    steps_named = sympy.numbered_symbols("s")
+    temporaries: list[tuple[sympy.Symbol, sympy.Expr]] = []
+    window: list[tuple[sympy.Symbol, sympy.Expr]] = []
+
+    def flush() -> None:
+        definitions, reduced = sympy.cse([value.xreplace(rename) for _, value in window],
+                                         symbols=names)
+        temporaries.extend(definitions)
+        for (symbol, _), value in zip(window, reduced):
+            if value.is_Atom:  # a number, an input or a temporary: no copy
+                rename[symbol] = value
+                continue
+            rename[symbol] = next(steps_named)
+            temporaries.append((rename[symbol], value))
+        window.clear()
+
+    for group in kept:
+        defined = {symbol for symbol, _ in window}
+        if any(value.free_symbols & defined for _, value in group):
+            flush()
+        window.extend(group)
+    if window:
+        flush()
+    return temporaries, [e.xreplace(rename) for e in exprs]
 
 
 def _shape(matrix: sympy.MatrixBase, flatten: bool) -> tuple[int, ...]:

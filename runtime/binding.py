@@ -82,7 +82,8 @@ class CModule:
 
     def _wrap(self, function: interface.Function):
         c_function = getattr(self.pointer, function.name)
-        lengths = {"v": self.sizes["nv"], "q": self.NQ, "qd": self.NQ, "p": self.NP}
+        lengths = {"v": self.sizes["nv"], "vd": self.sizes["nv"], "q": self.NQ, "qd": self.NQ,
+                   "p": self.NP}
         shapes = [tuple(self.sizes[s] for s in r.shape) for r in function.results]
         view = ffi()
 
@@ -230,7 +231,8 @@ class NumpyModel:
                 state.p_pointer, state.p_list = pointer, unpack(pointer, self.sizes["np"])
             return state.p_list
 
-        converters = {"v": lambda c: unpack(c, nv), "q": lambda c: unpack(c, nq),
+        converters = {"v": lambda c: unpack(c, nv), "vd": lambda c: unpack(c, nv),
+                      "q": lambda c: unpack(c, nq),
                       "qd": lambda c: unpack(c, nq), "t": None, "p": parameters}
         steps = tuple(converters[name] for name in function.args)
         return lambda values: [c if s is None else s(c) for s, c in zip(steps, values)]

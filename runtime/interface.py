@@ -10,7 +10,8 @@ runtime/c equal to it), and the runtime fills a `dep_model` from a NumPy module 
     python -m depsim.runtime.interface > runtime/c/depsim_model.h    # after a change here
 
 Arrays are float64 in SI units; q, qd have NQ entries, p NP; t is the time (s); v holds the
-values of the assembly tree's joints (NV: angles, rad, and slider displacements, m). Matrices
+values of the assembly tree's joints (NV: angles, rad, and slider displacements, m), vd their
+rates. Matrices
 are row-major. A function writes every entry of its results (zeros included).
 """
 
@@ -18,9 +19,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-ABI = 6  # DEP_MODEL_ABI: bumped whenever the dep_model struct changes
+ABI = 7  # DEP_MODEL_ABI: bumped whenever the dep_model struct changes
 
-ARGUMENTS = ("v", "q", "qd", "t", "p")  # every function takes a subsequence, in this order
+ARGUMENTS = ("v", "vd", "q", "qd", "t", "p")  # every function takes a subsequence, in this order
 
 
 @dataclass(frozen=True, slots=True)
@@ -130,8 +131,8 @@ FUNCTIONS = (
              "The tree joints' initial values and rates (given, else 0)."),
     Function("tree_pose", ("v", "p"), (Output("q", ("nq",)),),
              "The pose placed along the assembly tree with joint values v, shape (NQ,)."),
-    Function("tree_jacobian", ("v", "p"), (Output("T", ("nq", "nv")),),
-             "d tree_pose / d v, shape (NQ, NV)."),
+    Function("tree_tangent", ("v", "vd", "p"), (Output("qd", ("nq",)),),
+             "d tree_pose / d v times the joint rates vd: the tree's velocities, shape (NQ,)."),
     Function("loop_targets", ("p",), (Output("angle", ("nh",)), Output("rate", ("nh",))),
              "Given initial angle and rate of each hinge closing a loop (nan: not given)."),
     Function("phi", ("q", "t", "p"), (Output("phi", ("nc",)),),
@@ -186,7 +187,8 @@ def check_module(module) -> None:
 
 # ---- the C header ----------------------------------------------------------------------------
 
-_C_ARGUMENTS = {"v": "const double *v", "q": "const double *q", "qd": "const double *qd",
+_C_ARGUMENTS = {"v": "const double *v", "vd": "const double *vd", "q": "const double *q",
+                "qd": "const double *qd",
                 "t": "double t", "p": "const double *p"}
 
 

@@ -8,10 +8,12 @@
  *     Phi(q(v)) = 0   and, for each hinge that closes a loop and was given an angle,
  *     theta(q(v)) = that angle,
  *
- * with the Jacobian [Phi_q; J_theta] T, T = d tree_pose / d v. The rates follow linearly:
- * Phi_q T vd = -Phi_t (and J_theta T vd = a given loop rate), solved for the free rates by
- * least squares of minimum norm, the held rates fixed. q = tree_pose(v) and qd = T vd are
- * then consistent to round-off; values that cannot all hold are a SolverError naming them.
+ * with the Jacobian [Phi_q; J_theta] T, T = d tree_pose / d v, whose columns for the free
+ * values the model's tree_tangent gives one at a time (T is never formed). The rates follow
+ * linearly: Phi_q T vd = -Phi_t (and J_theta T vd = a given loop rate), solved for the free
+ * rates by least squares of minimum norm, the held rates fixed. q = tree_pose(v) and
+ * qd = tree_tangent(v, vd) are then consistent to round-off; values that cannot all hold are a
+ * SolverError naming them.
  */
 #include <math.h>
 #include <stdio.h>
@@ -28,11 +30,12 @@ typedef struct assembly {
     dep_constraints *cs;
     int nq, nv, nc, nh, nf, rows;   /* rows: nc + hinges with a loop target */
     int *free, *target;             /* nf free joint indices; the hinges with a target */
-    double *v, *trial, *vd, *angles, *rates, *q, *T, *J, *H, *A, *N, *F, *g, *step, *theta;
+    double *v, *trial, *vd, *angles, *rates, *q, *unit, *column, *product, *J, *H, *A, *N, *F,
+        *g, *step, *theta;
 } assembly;
 
-/* The residual F(v) (rows) at the pose q(v), with T and the Jacobian A = [Phi_q; J_h] T[:,
-   free] when `jacobian`. Returns max |F|. */
+/* The residual F(v) (rows) at the pose q(v), with the Jacobian A = [Phi_q; J_h] T[:, free]
+   when `jacobian`, column by column. Returns max |F|. */
 static double residual(assembly *x, const double *v, int jacobian)
 {
     const dep_model *m = x->m;
@@ -52,18 +55,24 @@ static double residual(assembly *x, const double *v, int jacobian)
     if (!jacobian) {
         return largest;
     }
-    m->tree_jacobian(v, x->p, x->T);
     dep_cs_jacobian(x->cs, x->q, 0.0, x->J);
     if (n_target > 0) {
         m->hinge_jacobian(x->q, x->p, x->H);
     }
-    for (int i = 0; i < x->rows; ++i) {
-        const double *row = i < x->nc ? x->J + (size_t)i * x->nq
-                                      : x->H + (size_t)x->target[i - x->nc] * x->nq;
-        for (int c = 0; c < x->nf; ++c) {
+    for (int c = 0; c < x->nf; ++c) {
+        x->unit[x->free[c]] = 1.0;
+        m->tree_tangent(v, x->unit, x->p, x->column);
+        x->unit[x->free[c]] = 0.0;
+        dep_cs_times(x->cs, x->J, x->column, x->product);
+        for (int i = 0; i < x->rows; ++i) {
             double sum = 0.0;
-            for (int j = 0; j < x->nq; ++j) {
-                sum += row[j] * x->T[(size_t)j * x->nv + x->free[c]];
+            if (i < x->nc) {
+                sum = x->product[i];
+            } else {
+                const double *row = x->H + (size_t)x->target[i - x->nc] * x->nq;
+                for (int j = 0; j < x->nq; ++j) {
+                    sum += row[j] * x->column[j];
+                }
             }
             x->A[(size_t)i * x->nf + c] = sum;
         }
@@ -227,21 +236,20 @@ static int assemble_rates(assembly *x, dep_run *run)
             x->vd[k] = 0.0;
         }
     }
-    residual(x, x->v, 1); /* T, J, H and A at the assembled pose (F unused) */
+    residual(x, x->v, 1); /* J, H and A at the assembled pose (F unused) */
     double *b = x->F, *qd = x->trial;
-    for (int j = 0; j < x->nq; ++j) { /* the held rates' velocities */
-        qd[j] = 0.0;
-        for (int k = 0; k < x->nv; ++k) {
-            qd[j] += x->T[(size_t)j * x->nv + k] * x->vd[k];
-        }
-    }
+    m->tree_tangent(x->v, x->vd, x->p, qd); /* the held rates' velocities */
     dep_cs_phi_t(x->cs, x->q, 0.0, b);
+    dep_cs_times(x->cs, x->J, qd, x->product);
     for (int i = 0; i < x->rows; ++i) {
-        const double *row = i < x->nc ? x->J + (size_t)i * x->nq
-                                      : x->H + (size_t)x->target[i - x->nc] * x->nq;
         double sum = 0.0;
-        for (int j = 0; j < x->nq; ++j) {
-            sum += row[j] * qd[j];
+        if (i < x->nc) {
+            sum = x->product[i];
+        } else {
+            const double *row = x->H + (size_t)x->target[i - x->nc] * x->nq;
+            for (int j = 0; j < x->nq; ++j) {
+                sum += row[j] * qd[j];
+            }
         }
         b[i] = i < x->nc ? -b[i] - sum : x->rates[x->target[i - x->nc]] - sum;
     }
@@ -347,10 +355,13 @@ int dep_run_assemble(dep_run *run, double *q, double *qd)
 {
     const dep_model *m = run->model;
     assembly x = {m, run->p, &run->cs, m->nq, m->nv, run->cs.nc, m->nh, 0, 0,
-                  NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL,
-                  NULL, NULL, NULL, NULL, NULL};
+                  NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL,
+                  NULL, NULL, NULL, NULL, NULL, NULL};
     dep_arena *arena = &run->arena;
-    size_t nv = (size_t)m->nv, nq = (size_t)m->nq, rows = (size_t)(x.nc + m->nh);
+    size_t nv = (size_t)m->nv, nq = (size_t)m->nq, rows = (size_t)(x.nc + m->nh), nfree = 0;
+    for (int k = 0; k < m->nv; ++k) {
+        nfree += m->tree_held[k] != 3; /* at most this many free values or rates */
+    }
     x.free = dep_bytes(arena, (nv + 1) * sizeof *x.free);
     x.target = dep_bytes(arena, ((size_t)m->nh + 1) * sizeof *x.target);
     x.v = dep_doubles(arena, nv + 1);
@@ -360,11 +371,13 @@ int dep_run_assemble(dep_run *run, double *q, double *qd)
     x.rates = dep_doubles(arena, (size_t)m->nh + 1);
     x.theta = dep_doubles(arena, (size_t)m->nh + 1);
     x.q = dep_doubles(arena, nq);
-    x.T = dep_doubles(arena, nq * nv + 1);
+    x.unit = dep_doubles(arena, nv + 1);
+    x.column = dep_doubles(arena, nq + 1);
+    x.product = dep_doubles(arena, (size_t)x.nc + 1);
     x.J = dep_doubles(arena, (size_t)x.nc * nq + 1);
     x.H = dep_doubles(arena, (size_t)m->nh * nq + 1);
-    x.A = dep_doubles(arena, rows * nv + 1);
-    x.N = dep_doubles(arena, nv * nv + 1);
+    x.A = dep_doubles(arena, rows * nfree + 1);
+    x.N = dep_doubles(arena, nfree * nfree + 1);
     x.F = dep_doubles(arena, rows + 1);
     x.g = dep_doubles(arena, rows + 1);
     x.step = dep_doubles(arena, nv + 1);
@@ -399,11 +412,6 @@ int dep_run_assemble(dep_run *run, double *q, double *qd)
         return status;
     }
     m->tree_pose(x.v, run->p, q);
-    for (size_t j = 0; j < nq; ++j) {
-        qd[j] = 0.0;
-        for (size_t k = 0; k < nv; ++k) {
-            qd[j] += x.T[j * nv + k] * x.vd[k];
-        }
-    }
+    m->tree_tangent(x.v, x.vd, run->p, qd);
     return record(&x, run);
 }

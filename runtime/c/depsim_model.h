@@ -11,7 +11,7 @@
 #ifndef DEPSIM_MODEL_H
 #define DEPSIM_MODEL_H
 
-#define DEP_MODEL_ABI 6 /* bumped whenever this struct changes */
+#define DEP_MODEL_ABI 7 /* bumped whenever this struct changes */
 
 typedef struct dep_model {
     int abi; /* DEP_MODEL_ABI of the header the model was compiled with */
@@ -77,8 +77,8 @@ typedef struct dep_model {
     void (*tree_values)(const double *p, double *v0, double *vd0);
     /* The pose placed along the assembly tree with joint values v, shape (NQ,). */
     void (*tree_pose)(const double *v, const double *p, double *q);
-    /* d tree_pose / d v, shape (NQ, NV). */
-    void (*tree_jacobian)(const double *v, const double *p, double *T);
+    /* d tree_pose / d v times the joint rates vd: the tree's velocities, shape (NQ,). */
+    void (*tree_tangent)(const double *v, const double *vd, const double *p, double *qd);
     /* Given initial angle and rate of each hinge closing a loop (nan: not given). */
     void (*loop_targets)(const double *p, double *angle, double *rate);
     /* Constraint residuals Phi(q, t), shape (NC,). */

@@ -64,13 +64,15 @@ def initial_state(p):
     x1 = 0.5*p[0]
     x2 = x1*math.cos(x0)
     x3 = x1*math.sin(x0)
+    s0 = -p[7]*x3
+    s1 = p[7]*x2
     q0 = numpy.zeros((3,))
     q0[0] = x2
     q0[1] = x3
     q0[2] = x0
     qd0 = numpy.zeros((3,))
-    qd0[0] = -p[7]*x3
-    qd0[1] = p[7]*x2
+    qd0[0] = s0
+    qd0[1] = s1
     qd0[2] = p[7]
     return q0, qd0
 
@@ -88,22 +90,27 @@ def tree_pose(v, p):
     """The pose placed along the assembly tree with joint values v, shape (NQ,)."""
     x0 = p[4] - v[0]
     x1 = 0.5*p[0]
+    s0 = x1*math.cos(x0)
+    s1 = -x1*math.sin(x0)
+    s2 = -x0
     q = numpy.zeros((3,))
-    q[0] = x1*math.cos(x0)
-    q[1] = -x1*math.sin(x0)
-    q[2] = -x0
+    q[0] = s0
+    q[1] = s1
+    q[2] = s2
     return q
 
 
-def tree_jacobian(v, p):
-    """d tree_pose / d v, shape (NQ, NV)."""
+def tree_tangent(v, vd, p):
+    """d tree_pose / d v times the joint rates vd: the tree's velocities, shape (NQ,)."""
     x0 = p[4] - v[0]
-    x1 = 0.5*p[0]
-    T = numpy.zeros((3, 1))
-    T[0, 0] = x1*math.sin(x0)
-    T[1, 0] = x1*math.cos(x0)
-    T[2, 0] = 1
-    return T
+    x1 = 0.5*p[0]*vd[0]
+    s0 = x1*math.sin(x0)
+    s1 = x1*math.cos(x0)
+    qd = numpy.zeros((3,))
+    qd[0] = s0
+    qd[1] = s1
+    qd[2] = vd[0]
+    return qd
 
 
 def loop_targets(p):

@@ -68,8 +68,8 @@ def tree_pose(v, p):
     return initial_state(p)[0]
 
 
-def tree_jacobian(v, p):
-    return np.zeros((len(COORDINATES), 0))
+def tree_tangent(v, vd, p):
+    return initial_state(p)[1]
 
 
 def loop_targets(p):
