@@ -374,7 +374,7 @@ int dep_run_assemble(dep_run *run, double *q, double *qd)
     x.unit = dep_doubles(arena, nv + 1);
     x.column = dep_doubles(arena, nq + 1);
     x.product = dep_doubles(arena, (size_t)x.nc + 1);
-    x.J = dep_doubles(arena, (size_t)x.nc * nq + 1);
+    x.J = dep_doubles(arena, DEP_JACOBIAN_SIZE(m));
     x.H = dep_doubles(arena, (size_t)m->nh * nq + 1);
     x.A = dep_doubles(arena, rows * nfree + 1);
     x.N = dep_doubles(arena, nfree * nfree + 1);

@@ -64,11 +64,10 @@ static void refresh_pattern(dep_constraints *cs)
 
 void dep_cs_times(const dep_constraints *cs, const double *J, const double *x, double *out)
 {
-    size_t nq = (size_t)cs->nq;
     for (int i = 0; i < cs->nc; ++i) {
         double sum = 0.0;
         for (int k = cs->row_start[i]; k < cs->row_start[i + 1]; ++k) {
-            sum += J[(size_t)i * nq + (size_t)cs->row_cols[k]] * x[cs->row_cols[k]];
+            sum += J[k] * x[cs->row_cols[k]];
         }
         out[i] = sum;
     }
@@ -77,23 +76,21 @@ void dep_cs_times(const dep_constraints *cs, const double *J, const double *x, d
 void dep_cs_transpose_times(const dep_constraints *cs, const double *J, const double *y,
                             double *out)
 {
-    size_t nq = (size_t)cs->nq;
-    memset(out, 0, nq * sizeof *out);
+    memset(out, 0, (size_t)cs->nq * sizeof *out);
     for (int i = 0; i < cs->nc; ++i) {
         for (int k = cs->row_start[i]; k < cs->row_start[i + 1]; ++k) {
-            out[cs->row_cols[k]] += J[(size_t)i * nq + (size_t)cs->row_cols[k]] * y[i];
+            out[cs->row_cols[k]] += J[k] * y[i];
         }
     }
 }
 
 double dep_cs_product_scale(const dep_constraints *cs, const double *J, const double *x)
 {
-    size_t nq = (size_t)cs->nq;
     double largest = 0.0;
     for (int i = 0; i < cs->nc; ++i) {
         double sum = 0.0;
         for (int k = cs->row_start[i]; k < cs->row_start[i + 1]; ++k) {
-            sum += fabs(J[(size_t)i * nq + (size_t)cs->row_cols[k]]) * fabs(x[cs->row_cols[k]]);
+            sum += fabs(J[k]) * fabs(x[cs->row_cols[k]]);
         }
         if (isnan(sum)) {
             return sum;
@@ -121,8 +118,7 @@ int dep_constraints_init(dep_constraints *cs, const dep_system *system, dep_aren
         cs->added[i].row = dep_doubles(arena, nq);
     }
     cs->row_start = dep_bytes(arena, ((size_t)cs->capacity + 1) * sizeof *cs->row_start);
-    cs->row_cols = dep_bytes(arena, ((size_t)model->nnz + DEP_MAX_ADDED * nq)
-                                    * sizeof *cs->row_cols);
+    cs->row_cols = dep_bytes(arena, DEP_JACOBIAN_SIZE(model) * sizeof *cs->row_cols);
     if (arena->failed || lock_patterns(cs, arena) != DEP_OK) {
         return DEP_MEMORY_ERROR;
     }
@@ -188,15 +184,13 @@ void dep_cs_phi(dep_constraints *cs, const double *q, double t, double *out)
 void dep_cs_jacobian(dep_constraints *cs, const double *q, double t, double *J)
 {
     const dep_model *model = cs->system->model;
-    int nq = cs->nq;
-    memset(J, 0, (size_t)cs->nc * (size_t)nq * sizeof *J);
-    model->phi_q(q, t, cs->system->p, cs->values);
-    for (int k = 0; k < model->nnz; ++k) {
-        J[model->phi_q_rows[k] * nq + model->phi_q_cols[k]] = cs->values[k];
-    }
+    model->phi_q(q, t, cs->system->p, J); /* the model's rows come first, in its order */
     for (int i = 0; i < cs->n_added; ++i) {
         const double *row = row_jacobian(cs, &cs->added[i], q, cs->hinge_jacobian);
-        memcpy(J + (size_t)(cs->nc_module + i) * (size_t)nq, row, (size_t)nq * sizeof *J);
+        int a = cs->nc_module + i;
+        for (int k = cs->row_start[a]; k < cs->row_start[a + 1]; ++k) {
+            J[k] = row[cs->row_cols[k]];
+        }
     }
 }
 
@@ -240,7 +234,7 @@ void dep_cs_v_vel(dep_constraints *cs, const double *q, const double *qd, double
     for (int i = 0; i < cs->nc; ++i) {
         double sum = 0.0;
         for (int k = cs->row_start[i]; k < cs->row_start[i + 1]; ++k) {
-            sum += J[(size_t)i * (size_t)cs->nq + (size_t)cs->row_cols[k]] * qd[cs->row_cols[k]];
+            sum += J[k] * qd[cs->row_cols[k]];
         }
         out[i] = -sum - out[i];
     }
@@ -253,7 +247,7 @@ void dep_cs_v_acc(dep_constraints *cs, const double *q, const double *qd, const 
     for (int i = 0; i < cs->nc; ++i) {
         double sum = 0.0;
         for (int k = cs->row_start[i]; k < cs->row_start[i + 1]; ++k) {
-            sum += J[(size_t)i * (size_t)cs->nq + (size_t)cs->row_cols[k]] * qdd[cs->row_cols[k]];
+            sum += J[k] * qdd[cs->row_cols[k]];
         }
         out[i] -= sum;
     }
@@ -420,7 +414,7 @@ static int violation(dep_constraints *cs, double t, const double *v, const doubl
 int dep_check_consistency(dep_constraints *cs, double t, const double *q, const double *qd,
                           double tol, const char *stage, double *scratch, dep_error *error)
 {
-    double *J = scratch, *v = scratch + (size_t)cs->nc * (size_t)cs->nq;
+    double *J = scratch, *v = scratch + DEP_JACOBIAN_SIZE(cs->system->model);
     dep_cs_jacobian(cs, q, t, J);
     dep_cs_phi(cs, q, t, v);
     for (int i = 0; i < cs->nc; ++i) {

@@ -200,17 +200,11 @@ void dep_history_predict(const dep_history *history, const dep_profile *profile,
 /* ---- errors and the step factor ---------------------------------------------------------- */
 
 /* The weighted size of h^2 c G J1^T d (nq scratch: 2 nq). */
-static double position_effect(const double *J1, const double *d, int nc, int nq, double factor,
+static double position_effect(const double *J1, const double *d, int nq, double factor,
                               const dep_multipliers *mp, const double *scale_q, double *scratch)
 {
     double *column = scratch, *excursion = scratch + nq;
-    for (int j = 0; j < nq; ++j) {
-        double sum = 0.0;
-        for (int i = 0; i < nc; ++i) {
-            sum += J1[i * nq + j] * d[i];
-        }
-        column[j] = sum;
-    }
+    dep_cs_transpose_times(mp->cs, J1, d, column);
     dep_multipliers_apply(mp, column, excursion);
     for (int j = 0; j < nq; ++j) {
         excursion[j] = factor * excursion[j];
@@ -241,7 +235,7 @@ double dep_interpolation_error(const dep_profile *profile, const dep_history *hi
         for (int i = 0; i < nc; ++i) {
             scratch[i] = lam1[i] - lam_position[i];
         }
-        return position_effect(J1, scratch, nc, nq, profile->h * profile->h / 6.0, mp,
+        return position_effect(J1, scratch, nq, profile->h * profile->h / 6.0, mp,
                                scale_q, scratch + nc);
     }
     double times[DEP_HISTORY + 1], *table = scratch, *column = scratch + (size_t)nc * points;
@@ -261,7 +255,7 @@ double dep_interpolation_error(const dep_profile *profile, const dep_history *hi
         }
     }
     const double *top = table + (size_t)(points - 1) * nc;
-    return position_effect(J1, top, nc, nq, pow(profile->h, *order) * profile->excursion, mp,
+    return position_effect(J1, top, nq, pow(profile->h, *order) * profile->excursion, mp,
                            scale_q, column);
 }
 

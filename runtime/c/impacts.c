@@ -21,24 +21,18 @@ static void measure_acceleration(void *context, const double *lam, dep_measureme
     acceleration_pass *a = context;
     dep_acceleration_work *w = a->w;
     int nq = w->system->nq, nc = w->cs->nc;
+    dep_cs_transpose_times(w->cs, a->J, lam, w->jt);
     for (int j = 0; j < nq; ++j) { /* f - J^T lam */
-        double sum = 0.0;
-        for (int i = 0; i < nc; ++i) {
-            sum += a->J[i * nq + j] * lam[i];
-        }
-        w->jt[j] = w->f[j] - sum;
+        w->jt[j] = w->f[j] - w->jt[j];
     }
     dep_mass_solve(&w->system->mass, w->jt, out->x);
+    dep_cs_times(w->cs, a->J, out->x, out->v);
     for (int i = 0; i < nc; ++i) {
-        double sum = 0.0;
-        for (int j = 0; j < nq; ++j) {
-            sum += a->J[i * nq + j] * out->x[j];
-        }
-        out->v[i] = w->gamma[i] - sum;
+        out->v[i] = w->gamma[i] - out->v[i];
     }
     out->J = a->J;
     out->jacobian_id = a->jacobian_id;
-    out->scale = fmax(dep_max_abs(w->gamma, nc), dep_product_scale(a->J, nc, nq, out->x));
+    out->scale = fmax(dep_max_abs(w->gamma, nc), dep_cs_product_scale(w->cs, a->J, out->x));
 }
 
 /* lambda (in: the guess) and qdd at (q, qd, t) from (1) and (2c), J = Phi_q there. */
@@ -75,13 +69,7 @@ static void measure_position(void *context, const double *mu, dep_measurement *o
 {
     position_projection *pp = context;
     int nq = pp->cs->nq, nc = pp->cs->nc;
-    for (int j = 0; j < nq; ++j) {
-        double sum = 0.0;
-        for (int i = 0; i < nc; ++i) {
-            sum += pp->J0[i * nq + j] * mu[i];
-        }
-        pp->column[j] = sum;
-    }
+    dep_cs_transpose_times(pp->cs, pp->J0, mu, pp->column);
     dep_mass_solve(pp->mass, pp->column, pp->solved);
     for (int j = 0; j < nq; ++j) {
         out->x[j] = pp->q[j] - pp->solved[j];
@@ -102,10 +90,11 @@ int dep_project_positions(dep_constraints *cs, dep_multipliers *mp, dep_measurem
                           dep_failure *failure)
 {
     int nq = cs->nq, nc = cs->nc;
-    double *J0 = scratch, *mu = J0 + (size_t)nc * (size_t)nq, *column = mu + nc;
+    double *J0 = scratch, *mu = J0 + DEP_JACOBIAN_SIZE(cs->system->model), *column = mu + nc;
     position_projection pp = {cs, mp->mass, q, J0, t, column, column + nq, ids};
     dep_measurement *final = NULL;
     dep_pass_report report;
+    mp->cs = cs;
     dep_cs_jacobian(cs, q, t, J0);
     memset(mu, 0, (size_t)nc * sizeof *mu);
     int status = dep_iterate_multipliers(mp, DEP_POSITION, mu, nc, measure_position, &pp, 1.0,
@@ -122,8 +111,9 @@ int dep_project_velocities(dep_constraints *cs, dep_multipliers *mp, dep_measure
                            long long *ids, double *mu, dep_failure *failure)
 {
     int nq = cs->nq, nc = cs->nc;
-    double *J = scratch, *phi_t = J + (size_t)nc * (size_t)nq, *moved = phi_t + nc;
+    double *J = scratch, *phi_t = J + DEP_JACOBIAN_SIZE(cs->system->model), *moved = phi_t + nc;
     dep_pass_report report;
+    mp->cs = cs;
     dep_cs_jacobian(cs, q, t, J);
     dep_cs_phi_t(cs, q, t, phi_t);
     int status = dep_project_velocity(mp, J, ++*ids, nc, qd, phi_t, tol, moved, mu, slots,

@@ -453,9 +453,9 @@ static int setup(dep_run *run, const double *params, const dep_event *events, in
         return dep_plain_error(run->error, status, what);
     }
     size_t capacity = (size_t)run->cs.capacity, nq = (size_t)m->nq, ny = (size_t)run->ny;
-    run->scratch = dep_doubles(arena, capacity * nq + (DEP_HISTORY + 2) * capacity + 3 * ny
-                                      + 2 * nq);
-    run->dense_J = dep_doubles(arena, capacity * nq);
+    run->scratch = dep_doubles(arena, DEP_JACOBIAN_SIZE(m) + (DEP_HISTORY + 2) * capacity
+                                      + 3 * ny + 2 * nq);
+    run->dense_J = dep_doubles(arena, DEP_JACOBIAN_SIZE(m));
     run->dense_lam = dep_doubles(arena, capacity);
     run->tangent = dep_doubles(arena, ny);
     run->normal = dep_doubles(arena, 2 * capacity + 2 * nq);

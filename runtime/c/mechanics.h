@@ -64,7 +64,7 @@ int dep_settle(dep_mechanism *m, double t, const double *q, const double *qd,
                dep_error *error);
 int dep_settle_init(dep_mechanism *m, dep_arena *arena);
 
-/* impacts.c: the event-time solves. scratch: (nc + 3) nq + 2 nc doubles. */
+/* impacts.c: the event-time solves. scratch: DEP_JACOBIAN_SIZE + 3 nq + 2 nc doubles. */
 int dep_project_positions(dep_constraints *cs, dep_multipliers *mp, dep_measurement *slots[2],
                           double *q, double t, double tol, double *scratch, long long *ids,
                           dep_failure *failure);

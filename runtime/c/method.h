@@ -27,11 +27,16 @@ typedef struct dep_constraints {
     double *values, *theta, *hinge_jacobian; /* scratch */
     /* Where the active rows' Jacobian can be non-zero: row i's columns are
        row_cols[row_start[i] .. row_start[i + 1]). The model's rows from PHI_Q_ROWS/COLS, a
-       hinge lock from HINGE_JACOBIAN_ROWS/COLS, a linear row from its own non-zeros. */
+       hinge lock from HINGE_JACOBIAN_ROWS/COLS, a linear row from its own non-zeros. A
+       Jacobian J of the active rows holds exactly these entries, in this order: row i's
+       values are J[row_start[i] .. row_start[i + 1]) (DEP_JACOBIAN_SIZE of them at most). */
     int *row_start, *row_cols;
     int *lock_start;           /* nh + 1: hinge h's columns are lock_cols[lock_start[h]..) */
     const int *lock_cols;
 } dep_constraints;
+
+/* Doubles that hold a Jacobian of any active set: Phi_q's non-zeros and every added row's. */
+#define DEP_JACOBIAN_SIZE(model) ((size_t)(model)->nnz + (size_t)DEP_MAX_ADDED * (size_t)(model)->nq)
 
 int dep_constraints_init(dep_constraints *cs, const dep_system *system, dep_arena *arena);
 void dep_cs_phi(dep_constraints *cs, const double *q, double t, double *out);
@@ -173,6 +178,7 @@ typedef void (*dep_mobility_function)(void *context, const double *x, double *ou
 
 typedef struct dep_multipliers { /* scratch of the iteration and its Schur-complement cache */
     int nq, capacity;
+    const dep_constraints *cs; /* the rows whose Jacobians (their pattern) the passes see */
     const dep_mass *mass;
     /* What a level sees of a generalized force x: M^-1 x, or mobility(context, x, out) when
        set (the linearly implicit step's response), identified by mobility_id (> 0) in the
@@ -185,15 +191,16 @@ typedef struct dep_multipliers { /* scratch of the iteration and its Schur-compl
     int schur_envelope;        /* 1: S and L held in envelope form (a diagonal mass matrix) */
     int *first, *offset;       /* capacity: row a of S spans columns first[a]..a, from offset[a] */
     dep_envelope envelope;     /* that form: first, offset, S and L */
-    int *column_start, *column_rows; /* nq + 1, capacity * nq: the rows touching each column */
+    /* nq + 1, then per coordinate the rows touching it and their entries in J */
+    int *column_start, *column_rows, *column_entries;
     double *S, *L, *diag, *MinvJT, *column;
     double *x, *r, *z, *d, *Sd, *inv_diag, *step, *trial_lam, *work;
 } dep_multipliers;
 
-int dep_multipliers_init(dep_multipliers *mp, const dep_mass *mass, int nq, int capacity,
-                         dep_arena *arena);
-int dep_measurement_init(dep_measurement *m, int nq, int capacity, int ny, int own_jacobian,
-                         dep_arena *arena);
+int dep_multipliers_init(dep_multipliers *mp, const dep_mass *mass,
+                         const dep_constraints *cs, int capacity, dep_arena *arena);
+int dep_measurement_init(dep_measurement *m, const dep_model *model, int capacity, int ny,
+                         int own_jacobian, dep_arena *arena);
 /* S = J G J^T with G = mobility (NULL: M^-1) for the iterations that follow. */
 void dep_multipliers_set_mobility(dep_multipliers *mp, dep_mobility_function mobility,
                                   void *context, long long id);
@@ -205,7 +212,6 @@ int dep_iterate_multipliers(dep_multipliers *mp, int stage, double *lam, int nc,
 int dep_schur_solve(dep_multipliers *mp, const double *J, long long jacobian_id, int nc,
                     const double *b, double *x);
 double dep_max_abs(const double *v, int n);
-double dep_product_scale(const double *J, int nc, int nq, const double *x);
 int dep_project_velocity(dep_multipliers *mp, const double *J, long long jacobian_id, int nc,
                          const double *qd, const double *phi_t, double tol, double *qd_new,
                          double *mu, dep_measurement *slots[2], dep_pass_report *report,

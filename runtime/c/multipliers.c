@@ -26,25 +26,27 @@
 
 const char *const dep_stage_names[3] = {"position", "velocity", "acceleration"};
 
-int dep_multipliers_init(dep_multipliers *mp, const dep_mass *mass, int nq, int capacity,
-                         dep_arena *arena)
+int dep_multipliers_init(dep_multipliers *mp, const dep_mass *mass,
+                         const dep_constraints *cs, int capacity, dep_arena *arena)
 {
-    size_t nc = (size_t)capacity;
+    size_t nc = (size_t)capacity, nq = (size_t)cs->nq;
     memset(mp, 0, sizeof *mp);
-    mp->nq = nq;
+    mp->nq = cs->nq;
+    mp->cs = cs;
     mp->capacity = capacity;
     mp->mass = mass;
     mp->schur_id = -1;
     mp->S = dep_doubles(arena, nc * nc);
     mp->L = dep_doubles(arena, nc * nc);
-    mp->MinvJT = dep_doubles(arena, nc * (size_t)nq);
+    mp->MinvJT = dep_doubles(arena, nc * nq);
     mp->first = dep_bytes(arena, nc * sizeof *mp->first);
     mp->offset = dep_bytes(arena, (nc + 1) * sizeof *mp->offset);
     mp->envelope = (dep_envelope){0, mp->first, mp->offset, mp->S, mp->L};
-    mp->column_start = dep_bytes(arena, ((size_t)nq + 1) * sizeof *mp->column_start);
-    mp->column_rows = dep_bytes(arena, nc * (size_t)nq * sizeof *mp->column_rows);
-    mp->column = dep_doubles(arena, (size_t)nq);
-    mp->work = dep_doubles(arena, (size_t)nq);
+    mp->column_start = dep_bytes(arena, (nq + 1) * sizeof *mp->column_start);
+    mp->column_rows = dep_bytes(arena, DEP_JACOBIAN_SIZE(cs->system->model) * sizeof(int));
+    mp->column_entries = dep_bytes(arena, DEP_JACOBIAN_SIZE(cs->system->model) * sizeof(int));
+    mp->column = dep_doubles(arena, nq);
+    mp->work = dep_doubles(arena, nq);
     double **vectors[] = {&mp->diag, &mp->x, &mp->r, &mp->z, &mp->d, &mp->Sd, &mp->inv_diag,
                           &mp->step, &mp->trial_lam};
     for (size_t i = 0; i < sizeof vectors / sizeof *vectors; ++i) {
@@ -70,14 +72,14 @@ void dep_multipliers_apply(const dep_multipliers *mp, const double *x, double *o
     }
 }
 
-int dep_measurement_init(dep_measurement *m, int nq, int capacity, int ny, int own_jacobian,
-                         dep_arena *arena)
+int dep_measurement_init(dep_measurement *m, const dep_model *model, int capacity, int ny,
+                         int own_jacobian, dep_arena *arena)
 {
     memset(m, 0, sizeof *m);
     m->v = dep_doubles(arena, (size_t)capacity);
-    m->x = dep_doubles(arena, (size_t)nq);
+    m->x = dep_doubles(arena, (size_t)model->nq);
     if (own_jacobian) {
-        m->J_own = dep_doubles(arena, (size_t)capacity * (size_t)nq);
+        m->J_own = dep_doubles(arena, DEP_JACOBIAN_SIZE(model));
         m->J = m->J_own;
     }
     if (ny > 0 && dep_rk_init(&m->rk, ny, arena) != DEP_OK) {
@@ -98,23 +100,6 @@ double dep_max_abs(const double *v, int n)
     return largest;
 }
 
-/* max_i sum_j |J_ij x_j|: the size of the terms J x sums, which sets its round-off. */
-double dep_product_scale(const double *J, int nc, int nq, const double *x)
-{
-    double largest = 0.0;
-    for (int i = 0; i < nc; ++i) {
-        double sum = 0.0;
-        for (int j = 0; j < nq; ++j) {
-            sum += fabs(J[i * nq + j]) * fabs(x[j]);
-        }
-        if (isnan(sum)) {
-            return sum;
-        }
-        largest = fmax(largest, sum);
-    }
-    return largest;
-}
-
 static double dot(const double *a, const double *b, int n)
 {
     double sum = 0.0;
@@ -122,6 +107,32 @@ static double dot(const double *a, const double *b, int n)
         sum += a[i] * b[i];
     }
     return sum;
+}
+
+/* out (nc) = J x over the active rows' pattern. */
+static void times(const dep_multipliers *mp, const double *J, int nc, const double *x,
+                  double *out)
+{
+    const int *start = mp->cs->row_start, *cols = mp->cs->row_cols;
+    for (int a = 0; a < nc; ++a) {
+        double sum = 0.0;
+        for (int k = start[a]; k < start[a + 1]; ++k) {
+            sum += J[k] * x[cols[k]];
+        }
+        out[a] = sum;
+    }
+}
+
+/* out (nq, all zero on entry) += J^T y over the pattern. */
+static void transpose_times(const dep_multipliers *mp, const double *J, int nc, const double *y,
+                            double *out)
+{
+    const int *start = mp->cs->row_start, *cols = mp->cs->row_cols;
+    for (int a = 0; a < nc; ++a) {
+        for (int k = start[a]; k < start[a + 1]; ++k) {
+            out[cols[k]] += J[k] * y[a];
+        }
+    }
 }
 
 /* ---- S = J M^-1 J^T (Schur) ------------------------------------------------------------ */
@@ -165,12 +176,10 @@ static int factor_schur(dep_multipliers *mp, int nc)
 static void envelope_schur(dep_multipliers *mp, const double *J, int nc)
 {
     int nq = mp->nq, *start = mp->column_start, *rows = mp->column_rows, *first = mp->first;
-    const double *inverse = mp->mass->inverse_diagonal;
+    const int *row_start = mp->cs->row_start, *cols = mp->cs->row_cols;
     memset(start, 0, ((size_t)nq + 1) * sizeof *start);
-    for (int a = 0; a < nc; ++a) {
-        for (int j = 0; j < nq; ++j) {
-            start[j + 1] += J[(size_t)a * (size_t)nq + (size_t)j] != 0.0;
-        }
+    for (int k = 0; k < row_start[nc]; ++k) {
+        start[cols[k] + 1]++;
     }
     for (int j = 0; j < nq; ++j) {
         start[j + 1] += start[j];
@@ -178,11 +187,10 @@ static void envelope_schur(dep_multipliers *mp, const double *J, int nc)
     for (int a = 0; a < nc; ++a) {
         first[a] = a;
     }
-    for (int a = 0; a < nc; ++a) { /* rows by coordinate, ascending; start[j] moves along */
-        for (int j = 0; j < nq; ++j) {
-            if (J[(size_t)a * (size_t)nq + (size_t)j] != 0.0) {
-                rows[start[j]++] = a;
-            }
+    for (int a = 0; a < nc; ++a) { /* (row, entry) by coordinate, rows ascending */
+        for (int k = row_start[a]; k < row_start[a + 1]; ++k) {
+            mp->column_entries[start[cols[k]]] = k;
+            rows[start[cols[k]]++] = a;
         }
     }
     for (int j = nq; j > 0; --j) { /* start[j] back to the beginning of column j */
@@ -201,13 +209,13 @@ static void envelope_schur(dep_multipliers *mp, const double *J, int nc)
         mp->offset[a + 1] = mp->offset[a] + a - first[a] + 1;
     }
     memset(mp->S, 0, (size_t)mp->offset[nc] * sizeof *mp->S);
+    const double *inverse = mp->mass->inverse_diagonal;
+    const int *entries = mp->column_entries;
     for (int j = 0; j < nq; ++j) {
         for (int k = start[j]; k < start[j + 1]; ++k) {
-            int a = rows[k];
-            double weight = J[(size_t)a * (size_t)nq + (size_t)j] * inverse[j];
+            double weight = J[entries[k]] * inverse[j];
             for (int m = start[j]; m <= k; ++m) {
-                int b = rows[m];
-                ENVELOPE(mp, mp->S, a, b) += weight * J[(size_t)b * (size_t)nq + (size_t)j];
+                ENVELOPE(mp, mp->S, rows[k], rows[m]) += weight * J[entries[m]];
             }
         }
     }
@@ -236,18 +244,29 @@ static void schur_for(dep_multipliers *mp, const double *J, long long id, int nc
         return;
     }
     mp->schur_explicit = nc < EXPLICIT_BELOW;
-    for (int b = 0; b < nc; ++b) { /* row b of (M^-1 J^T)^T */
-        dep_multipliers_apply(mp, J + (size_t)b * (size_t)nq, mp->MinvJT + (size_t)b * (size_t)nq);
+    const int *row_start = mp->cs->row_start, *cols = mp->cs->row_cols;
+    for (int b = 0; b < nc; ++b) { /* row b of (G J^T)^T */
+        for (int k = row_start[b]; k < row_start[b + 1]; ++k) {
+            mp->column[cols[k]] = J[k];
+        }
+        dep_multipliers_apply(mp, mp->column, mp->MinvJT + (size_t)b * (size_t)nq);
+        for (int k = row_start[b]; k < row_start[b + 1]; ++k) {
+            mp->column[cols[k]] = 0.0;
+        }
     }
     for (int a = 0; a < nc; ++a) {
-        const double *Ja = J + (size_t)a * (size_t)nq;
-        if (mp->schur_explicit) {
-            for (int b = 0; b < nc; ++b) {
-                mp->S[a * nc + b] = dot(Ja, mp->MinvJT + (size_t)b * (size_t)nq, nq);
+        for (int b = mp->schur_explicit ? 0 : a; b < (mp->schur_explicit ? nc : a + 1); ++b) {
+            const double *GJb = mp->MinvJT + (size_t)b * (size_t)nq;
+            double sum = 0.0;
+            for (int k = row_start[a]; k < row_start[a + 1]; ++k) {
+                sum += J[k] * GJb[cols[k]];
             }
-            mp->diag[a] = mp->S[a * nc + a];
-        } else {
-            mp->diag[a] = dot(Ja, mp->MinvJT + (size_t)a * (size_t)nq, nq);
+            if (mp->schur_explicit) {
+                mp->S[a * nc + b] = sum;
+            }
+            if (a == b) {
+                mp->diag[a] = sum;
+            }
         }
     }
     mp->schur_factored = mp->schur_explicit && factor_schur(mp, nc);
@@ -297,16 +316,10 @@ static void schur_apply(dep_multipliers *mp, const double *J, int nc, const doub
         }
         return;
     }
-    memset(mp->column, 0, (size_t)nq * sizeof *mp->column);
-    for (int a = 0; a < nc; ++a) {
-        for (int j = 0; j < nq; ++j) {
-            mp->column[j] += J[a * nq + j] * x[a];
-        }
-    }
+    transpose_times(mp, J, nc, x, mp->column);
     dep_multipliers_apply(mp, mp->column, mp->work);
-    for (int a = 0; a < nc; ++a) {
-        out[a] = dot(J + (size_t)a * (size_t)nq, mp->work, nq);
-    }
+    times(mp, J, nc, mp->work, out);
+    memset(mp->column, 0, (size_t)nq * sizeof *mp->column);
 }
 
 /* Solve S x = b by Jacobi-preconditioned conjugate gradients into mp->x; returns 1 when
@@ -458,22 +471,19 @@ static void measure_projection(void *context, const double *mu, dep_measurement 
     projection *pr = context;
     int nq = pr->mp->nq, nc = pr->nc;
     double *column = pr->mp->column, *solved = pr->mp->work;
-    memset(column, 0, (size_t)nq * sizeof *column);
-    for (int a = 0; a < nc; ++a) { /* J^T mu */
-        for (int j = 0; j < nq; ++j) {
-            column[j] += pr->J[a * nq + j] * mu[a];
-        }
-    }
+    transpose_times(pr->mp, pr->J, nc, mu, column);
     dep_multipliers_apply(pr->mp, column, solved);
+    memset(column, 0, (size_t)nq * sizeof *column);
     for (int j = 0; j < nq; ++j) {
         out->x[j] = pr->qd[j] - solved[j];
     }
+    times(pr->mp, pr->J, nc, out->x, out->v);
     for (int a = 0; a < nc; ++a) {
-        out->v[a] = -dot(pr->J + (size_t)a * (size_t)nq, out->x, nq) - pr->phi_t[a];
+        out->v[a] = -out->v[a] - pr->phi_t[a];
     }
     out->J = pr->J;
     out->jacobian_id = pr->jacobian_id;
-    out->scale = dep_product_scale(pr->J, nc, nq, out->x);
+    out->scale = dep_cs_product_scale(pr->mp->cs, pr->J, out->x);
 }
 
 /* qd+ = qd - M^-1 J^T mu with J qd+ + phi_t = 0 by the iteration (6) with C = 1. */

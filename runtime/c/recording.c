@@ -74,7 +74,7 @@ int dep_recorder_init(dep_recorder *rec, const dep_system *system, const dep_set
     rec->lam_start = dep_bytes(arena, (rows + 1) * sizeof *rec->lam_start);
     rec->f = dep_doubles(arena, nq);
     rec->qdd = dep_doubles(arena, nq);
-    rec->J = dep_doubles(arena, (size_t)capacity * nq);
+    rec->J = dep_doubles(arena, DEP_JACOBIAN_SIZE(m));
     rec->v = dep_doubles(arena, (size_t)capacity);
     return arena->failed ? DEP_MEMORY_ERROR : DEP_OK;
 }
@@ -95,8 +95,13 @@ double dep_recorder_last_time(const dep_recorder *rec)
     return rec->rows ? rec->t[rec->rows - 1] : NAN;
 }
 
-static int name_index(dep_recorder *rec, const char *name)
+/* The id of a row name (new names appended); `hint`: where it usually is (the row's index,
+   as the model's rows come first in every active set), tried first. */
+static int name_index(dep_recorder *rec, const char *name, int hint)
 {
+    if (hint < rec->n_names && strcmp(rec->names[hint], name) == 0) {
+        return hint;
+    }
     for (int i = 0; i < rec->n_names; ++i) {
         if (strcmp(rec->names[i], name) == 0) {
             return i;
@@ -141,7 +146,7 @@ static int keep_multipliers(dep_recorder *rec, const double *lam, const dep_cons
         rec->lam_capacity = capacity;
     }
     for (int i = 0; i < cs->nc; ++i) {
-        int id = name_index(rec, cs->row_names[i]);
+        int id = name_index(rec, cs->row_names[i], i);
         if (id < 0) {
             return DEP_MEMORY_ERROR;
         }
@@ -168,12 +173,9 @@ int dep_record(dep_recorder *rec, double t, const double *q, const double *qd, c
     }
     dep_system_force(s, q, qd, t, rec->f);
     dep_cs_jacobian(cs, q, t, rec->J);
+    dep_cs_transpose_times(cs, rec->J, lam, rec->qdd);
     for (size_t j = 0; j < nq; ++j) { /* qdd = M^-1 (f - J^T lam) */
-        double sum = 0.0;
-        for (int i = 0; i < nc; ++i) {
-            sum += rec->J[(size_t)i * nq + j] * lam[i];
-        }
-        rec->f[j] -= sum;
+        rec->f[j] -= rec->qdd[j];
     }
     dep_mass_solve(&s->mass, rec->f, rec->qdd);
     double *residuals = rec->residuals + 3 * row;

@@ -24,7 +24,7 @@ int dep_settle_init(dep_mechanism *m, dep_arena *arena)
     settle_context *x = dep_bytes(arena, sizeof *x);
     m->settle = x;
     if (x == NULL || dep_constraints_init(&x->cs, s, arena) != DEP_OK
-        || dep_multipliers_init(&x->mp, &s->mass, s->nq, (int)capacity, arena) != DEP_OK) {
+        || dep_multipliers_init(&x->mp, &s->mass, &x->cs, (int)capacity, arena) != DEP_OK) {
         return DEP_MEMORY_ERROR;
     }
     x->m = m;
@@ -32,7 +32,7 @@ int dep_settle_init(dep_mechanism *m, dep_arena *arena)
     x->nq = s->nq;
     x->nh = s->nh;
     for (int k = 0; k < 4; ++k) {
-        if (dep_measurement_init(&x->slots[k], s->nq, (int)capacity, 0, k < 2, arena)) {
+        if (dep_measurement_init(&x->slots[k], s->model, (int)capacity, 0, k < 2, arena)) {
             return DEP_MEMORY_ERROR;
         }
     }
@@ -41,7 +41,7 @@ int dep_settle_init(dep_mechanism *m, dep_arena *arena)
     x->qd_new = dep_doubles(arena, nq);
     x->lam = dep_doubles(arena, capacity);
     x->mu = dep_doubles(arena, capacity);
-    x->scratch = dep_doubles(arena, (capacity + 4) * nq + 3 * capacity);
+    x->scratch = dep_doubles(arena, DEP_JACOBIAN_SIZE(s->model) + 4 * nq + 3 * capacity);
     x->queue_capacity = MAX_ROUNDS_PER_EVENT * (m->n_events + 1) * ((int)nh + 2) + 8;
     x->queue = dep_bytes(arena, (size_t)x->queue_capacity * sizeof *x->queue);
     x->starting = dep_bytes(arena, (size_t)m->n_events * sizeof *x->starting);

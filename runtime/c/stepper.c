@@ -74,11 +74,11 @@ int dep_stepper_init(dep_stepper *stepper, const dep_system *system, dep_constra
     stepper->capacity = capacity;
     stepper->tol = tol;
     stepper->constraint_tol = dep_constraint_tolerance(tol);
-    if (dep_multipliers_init(&stepper->mp, &system->mass, nq, capacity, arena) != DEP_OK) {
+    if (dep_multipliers_init(&stepper->mp, &system->mass, cs, capacity, arena) != DEP_OK) {
         return DEP_MEMORY_ERROR;
     }
     for (int k = 0; k < 6; ++k) { /* position (own J, trajectory), velocity, acceleration */
-        if (dep_measurement_init(&stepper->slots[k], nq, capacity, k < 2 ? ny : 0, k < 2,
+        if (dep_measurement_init(&stepper->slots[k], system->model, capacity, k < 2 ? ny : 0, k < 2,
                                  arena) != DEP_OK) {
             return DEP_MEMORY_ERROR;
         }
@@ -93,7 +93,7 @@ int dep_stepper_init(dep_stepper *stepper, const dep_system *system, dep_constra
         *rows[i] = dep_doubles(arena, (size_t)capacity);
     }
     stepper->force = dep_doubles(arena, (size_t)nq);
-    stepper->base_J = dep_doubles(arena, (size_t)capacity * (size_t)nq);
+    stepper->base_J = dep_doubles(arena, DEP_JACOBIAN_SIZE(system->model));
     if (dep_rk_init(&stepper->base, ny, arena) != DEP_OK) {
         return DEP_MEMORY_ERROR;
     }
@@ -108,7 +108,7 @@ int dep_stepper_init(dep_stepper *stepper, const dep_system *system, dep_constra
     stepper->accel.gamma = dep_doubles(arena, (size_t)capacity);
     stepper->jt_lam = dep_doubles(arena, (size_t)nq);
     stepper->q1 = dep_doubles(arena, (size_t)nq);
-    stepper->restart_J = dep_doubles(arena, (size_t)capacity * (size_t)nq);
+    stepper->restart_J = dep_doubles(arena, DEP_JACOBIAN_SIZE(system->model));
     stepper->dq = dep_doubles(arena, (size_t)nq);
     stepper->dqd = dep_doubles(arena, (size_t)nq);
     stepper->column = dep_doubles(arena, (size_t)nq);
@@ -417,8 +417,7 @@ static void measure_position(void *context, const double *lam1, dep_measurement 
     } else {
         integrate(stepper, lam1);
         copy_base(stepper, &out->rk);
-        memcpy(out->J_own, stepper->base_J,
-               (size_t)cs->nc * (size_t)stepper->nq * sizeof *out->J_own);
+        memcpy(out->J_own, stepper->base_J, (size_t)cs->row_start[cs->nc] * sizeof *out->J_own);
     }
     dep_cs_phi(cs, q1, stepper->t1, out->v);
     for (int i = 0; i < cs->nc; ++i) {

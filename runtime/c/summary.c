@@ -107,6 +107,20 @@ static void observe(dep_peak *p, double t, double force, double torque)
     }
 }
 
+/* The index of the result's row `name` (-1: none), looked for at `hint` first. */
+static int row_named(const dep_result *r, const char *name, int hint)
+{
+    if (hint < r->n_rows && strcmp(r->row_names[hint], name) == 0) {
+        return hint;
+    }
+    for (int c = 0; c < r->n_rows; ++c) {
+        if (strcmp(r->row_names[c], name) == 0) {
+            return c;
+        }
+    }
+    return -1;
+}
+
 static int peak_loads(const dep_model *m, const dep_loads *loads, dep_result *r)
 {
     char name[DEP_NAME_MAX + 8];
@@ -115,13 +129,10 @@ static int peak_loads(const dep_model *m, const dep_loads *loads, dep_result *r)
         return DEP_MEMORY_ERROR;
     }
     for (int k = 0; k < m->nh; ++k) {
-        int ix = -1, iy = -1;
-        for (int c = 0; c < r->n_rows; ++c) {
-            snprintf(name, sizeof name, "%s.x", m->hinge_names[k]);
-            ix = strcmp(r->row_names[c], name) == 0 ? c : ix;
-            snprintf(name, sizeof name, "%s.y", m->hinge_names[k]);
-            iy = strcmp(r->row_names[c], name) == 0 ? c : iy;
-        }
+        snprintf(name, sizeof name, "%s.x", m->hinge_names[k]);
+        int ix = row_named(r, name, 2 * k); /* the model's rows: each hinge's x, y in turn */
+        snprintf(name, sizeof name, "%s.y", m->hinge_names[k]);
+        int iy = row_named(r, name, 2 * k + 1);
         dep_peak p = {0.0, NAN, 0.0, NAN};
         for (int i = 0; i < r->n; ++i) {
             const double *lam = r->lam + (size_t)i * (size_t)r->n_rows;

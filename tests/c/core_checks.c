@@ -160,10 +160,25 @@ static int project(int nq, int nc)
     }
     given_mass = M;
     given_nq = nq;
-    dep_model model = {.abi = DEP_MODEL_ABI, .name = "projection", .nq = nq,
-                       .mass_matrix = mass_matrix};
+    dep_model model = {.abi = DEP_MODEL_ABI, .name = "projection", .nq = nq, .nc = nc,
+                       .nnz = nc * nq, .mass_matrix = mass_matrix};
     parts x;
     memset(&x, 0, sizeof x);
+    dep_constraints cs; /* the rows' pattern: every coordinate, so J is its own storage */
+    memset(&cs, 0, sizeof cs);
+    cs.system = &x.system;
+    cs.nq = nq;
+    cs.nc = cs.nc_module = nc;
+    int *start = calloc((size_t)nc + 1, sizeof *start);
+    int *cols = calloc((size_t)nc * (size_t)nq, sizeof *cols);
+    for (int i = 0; i <= nc; ++i) {
+        start[i] = i * nq;
+    }
+    for (int k = 0; k < nc * nq; ++k) {
+        cols[k] = k % nq;
+    }
+    cs.row_start = start;
+    cs.row_cols = cols;
     dep_multipliers mp;
     dep_measurement slots[2], *pair[2] = {&slots[0], &slots[1]};
     dep_pass_report report;
@@ -171,10 +186,10 @@ static int project(int nq, int nc)
     double *phi_t = calloc((size_t)nc, sizeof *phi_t), *mu = calloc((size_t)nc, sizeof *mu);
     double *out = calloc((size_t)nq, sizeof *out);
     if (dep_system_init(&x.system, &model, NULL, 0, &x.arena, &x.error) != DEP_OK
-        || dep_multipliers_init(&mp, &x.system.mass, nq, nc, &x.arena) != DEP_OK
-        || dep_measurement_init(&slots[0], nq, nc, 0, 0, &x.arena) != DEP_OK
-        || dep_measurement_init(&slots[1], nq, nc, 0, 0, &x.arena) != DEP_OK
-        || phi_t == NULL || mu == NULL || out == NULL) {
+        || dep_multipliers_init(&mp, &x.system.mass, &cs, nc, &x.arena) != DEP_OK
+        || dep_measurement_init(&slots[0], &model, nc, 0, 0, &x.arena) != DEP_OK
+        || dep_measurement_init(&slots[1], &model, nc, 0, 0, &x.arena) != DEP_OK
+        || phi_t == NULL || mu == NULL || out == NULL || start == NULL || cols == NULL) {
         return fail("setup");
     }
     if (dep_project_velocity(&mp, J, 1, nc, qd, phi_t, 1e-14, out, mu, pair, &report,
@@ -185,7 +200,7 @@ static int project(int nq, int nc)
         printf("%.17g%s", out[j], j + 1 < nq ? " " : "\n");
     }
     printf("iterations %d\n", report.iterations);
-    free(M), free(J), free(qd), free(phi_t), free(mu), free(out);
+    free(M), free(J), free(qd), free(phi_t), free(mu), free(out), free(start), free(cols);
     dep_arena_free(&x.arena);
     return 0;
 }
