@@ -117,7 +117,7 @@ def function_specs(system: SymbolicSystem) -> tuple[FunctionSpec, ...]:
         "loop_targets": (s.loop_angles, s.loop_rates), "phi": (s.phi,),
         "phi_q": (column(s.phi_q[i, j] for i, j in s.phi_q_pattern),), "phi_t": (s.phi_t,),
         "gamma": (s.gamma,), "force": (s.force,), "hinge_angles": (s.hinge_angles,),
-        "hinge_rates": (s.hinge_rates,), "hinge_jacobian": (s.hinge_jacobian,),
+        "hinge_rates": (s.hinge_rates,), "hinge_jacobian": (column(s.hinge_jacobian[i, j] for i, j in s.hinge_jacobian_pattern),),
         "hinge_gamma": (s.hinge_gamma,), "hinge_properties": (s.hinge_properties,),
         "outputs": (s.outputs,), "energy": (s.energy,), "dissipation": (s.dissipation,),
         "stiffness": (s.stiffness, s.stiffness_damping),

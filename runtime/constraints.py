@@ -35,6 +35,14 @@ class LinearConstraint:
         return 0.0
 
 
+def hinge_jacobian_matrix(module, q, p) -> np.ndarray:
+    """d theta / d q, (NH, NQ), from the module's values at HINGE_JACOBIAN_ROWS/COLS."""
+    J = np.zeros((len(module.HINGES), module.NQ))
+    J[list(module.HINGE_JACOBIAN_ROWS), list(module.HINGE_JACOBIAN_COLS)] = \
+        module.hinge_jacobian(q, p)
+    return J
+
+
 @dataclass(frozen=True)
 class HingeLock:
     """Hinge `hinge` held at `angle` (rad): Phi = theta_k(q) - angle, Jacobian from the module's
@@ -60,7 +68,7 @@ class HingeLock:
         return float(self.module.hinge_angles(q, p)[self._index] - self.angle)
 
     def jacobian(self, q, t, p):
-        return np.asarray(self.module.hinge_jacobian(q, p), dtype=float)[self._index]
+        return hinge_jacobian_matrix(self.module, q, p)[self._index]
 
     def phi_t(self, q, t, p):
         return 0.0

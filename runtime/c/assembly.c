@@ -34,6 +34,17 @@ typedef struct assembly {
         *g, *step, *theta;
 } assembly;
 
+/* d theta / d q of the k-th targeted hinge times x (nq), from the model's values in H. */
+static double hinge_times(const assembly *x, int k, const double *v)
+{
+    const dep_constraints *cs = x->cs;
+    double sum = 0.0;
+    for (int n = cs->lock_start[x->target[k]]; n < cs->lock_start[x->target[k] + 1]; ++n) {
+        sum += x->H[n] * v[cs->lock_cols[n]];
+    }
+    return sum;
+}
+
 /* The residual F(v) (rows) at the pose q(v), with the Jacobian A = [Phi_q; J_h] T[:, free]
    when `jacobian`, column by column. Returns max |F|. */
 static double residual(assembly *x, const double *v, int jacobian)
@@ -65,16 +76,8 @@ static double residual(assembly *x, const double *v, int jacobian)
         x->unit[x->free[c]] = 0.0;
         dep_cs_times(x->cs, x->J, x->column, x->product);
         for (int i = 0; i < x->rows; ++i) {
-            double sum = 0.0;
-            if (i < x->nc) {
-                sum = x->product[i];
-            } else {
-                const double *row = x->H + (size_t)x->target[i - x->nc] * x->nq;
-                for (int j = 0; j < x->nq; ++j) {
-                    sum += row[j] * x->column[j];
-                }
-            }
-            x->A[(size_t)i * x->nf + c] = sum;
+            x->A[(size_t)i * x->nf + c] = i < x->nc ? x->product[i]
+                                                    : hinge_times(x, i - x->nc, x->column);
         }
     }
     return largest;
@@ -242,16 +245,8 @@ static int assemble_rates(assembly *x, dep_run *run)
     dep_cs_phi_t(x->cs, x->q, 0.0, b);
     dep_cs_times(x->cs, x->J, qd, x->product);
     for (int i = 0; i < x->rows; ++i) {
-        double sum = 0.0;
-        if (i < x->nc) {
-            sum = x->product[i];
-        } else {
-            const double *row = x->H + (size_t)x->target[i - x->nc] * x->nq;
-            for (int j = 0; j < x->nq; ++j) {
-                sum += row[j] * qd[j];
-            }
-        }
-        b[i] = i < x->nc ? -b[i] - sum : x->rates[x->target[i - x->nc]] - sum;
+        b[i] = i < x->nc ? -b[i] - x->product[i]
+                         : x->rates[x->target[i - x->nc]] - hinge_times(x, i - x->nc, qd);
     }
     if (x->nf > 0) {
         normal_solve(x, b, 0.0, x->step);
@@ -375,7 +370,7 @@ int dep_run_assemble(dep_run *run, double *q, double *qd)
     x.column = dep_doubles(arena, nq + 1);
     x.product = dep_doubles(arena, (size_t)x.nc + 1);
     x.J = dep_doubles(arena, DEP_JACOBIAN_SIZE(m));
-    x.H = dep_doubles(arena, (size_t)m->nh * nq + 1);
+    x.H = dep_doubles(arena, (size_t)m->nhnz + 1);
     x.A = dep_doubles(arena, rows * nfree + 1);
     x.N = dep_doubles(arena, nfree * nfree + 1);
     x.F = dep_doubles(arena, rows + 1);

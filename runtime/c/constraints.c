@@ -113,7 +113,8 @@ int dep_constraints_init(dep_constraints *cs, const dep_system *system, dep_aren
     cs->row_joints = dep_bytes(arena, (size_t)cs->capacity * sizeof *cs->row_joints);
     cs->values = dep_doubles(arena, (size_t)model->nnz);
     cs->theta = dep_doubles(arena, nh);
-    cs->hinge_jacobian = dep_doubles(arena, nh * nq);
+    cs->hinge_jacobian = dep_doubles(arena, (size_t)model->nhnz + 1);
+    cs->row_values = dep_doubles(arena, nq);
     for (int i = 0; i < DEP_MAX_ADDED; ++i) {
         cs->added[i].row = dep_doubles(arena, nq);
     }
@@ -146,16 +147,21 @@ static double row_phi(dep_constraints *cs, const dep_added_row *r, const double 
     return sum - r->value;
 }
 
-/* The row's Jacobian (nq) at q, in `out` or (linear rows) its own storage. */
-static const double *row_jacobian(dep_constraints *cs, const dep_added_row *r, const double *q,
-                                  double *out)
+/* The added row i's Jacobian at its pattern (row_cols from row_start[nc_module + i]): a
+   linear row's own non-zeros, a lock's values of the model's hinge_jacobian. */
+static const double *row_jacobian(dep_constraints *cs, int i, const double *q)
 {
     const dep_system *s = cs->system;
+    const dep_added_row *r = &cs->added[i];
     if (r->kind == DEP_ROW_LINEAR) {
-        return r->row;
+        int a = cs->nc_module + i, n = 0;
+        for (int k = cs->row_start[a]; k < cs->row_start[a + 1]; ++k) {
+            cs->row_values[n++] = r->row[cs->row_cols[k]];
+        }
+        return cs->row_values;
     }
-    s->model->hinge_jacobian(q, s->p, out);
-    return out + (size_t)r->hinge * (size_t)cs->nq;
+    s->model->hinge_jacobian(q, s->p, cs->hinge_jacobian);
+    return cs->hinge_jacobian + cs->lock_start[r->hinge];
 }
 
 /* HingeLock.gamma: the model's hinge_gamma, -(J_k qd)_q qd (zero for rigid bodies); zero
@@ -186,11 +192,9 @@ void dep_cs_jacobian(dep_constraints *cs, const double *q, double t, double *J)
     const dep_model *model = cs->system->model;
     model->phi_q(q, t, cs->system->p, J); /* the model's rows come first, in its order */
     for (int i = 0; i < cs->n_added; ++i) {
-        const double *row = row_jacobian(cs, &cs->added[i], q, cs->hinge_jacobian);
         int a = cs->nc_module + i;
-        for (int k = cs->row_start[a]; k < cs->row_start[a + 1]; ++k) {
-            J[k] = row[cs->row_cols[k]];
-        }
+        memcpy(J + cs->row_start[a], row_jacobian(cs, i, q),
+               (size_t)(cs->row_start[a + 1] - cs->row_start[a]) * sizeof *J);
     }
 }
 
@@ -204,9 +208,10 @@ void dep_cs_jacobian_transpose_times(dep_constraints *cs, const double *q, doubl
         out[model->phi_q_cols[k]] += cs->values[k] * lam[model->phi_q_rows[k]];
     }
     for (int i = 0; i < cs->n_added; ++i) {
-        const double *row = row_jacobian(cs, &cs->added[i], q, cs->hinge_jacobian);
-        for (int j = 0; j < cs->nq; ++j) {
-            out[j] += row[j] * lam[cs->nc_module + i];
+        int a = cs->nc_module + i;
+        const double *row = row_jacobian(cs, i, q);
+        for (int k = cs->row_start[a]; k < cs->row_start[a + 1]; ++k) {
+            out[cs->row_cols[k]] += row[k - cs->row_start[a]] * lam[a];
         }
     }
 }

@@ -95,7 +95,7 @@ typedef struct dep_model {
     void (*hinge_angles)(const double *q, const double *p, double *theta);
     /* Hinge angle rates (rad/s), shape (NH,). */
     void (*hinge_rates)(const double *q, const double *qd, const double *p, double *theta_rate);
-    /* d theta / d q, shape (NH, NQ). */
+    /* Values of d theta / d q at (HINGE_JACOBIAN_ROWS, HINGE_JACOBIAN_COLS). */
     void (*hinge_jacobian)(const double *q, const double *p, double *J);
     /* -(J qd)_q qd per hinge: a locked hinge adds the row J qdd = hinge_gamma. */
     void (*hinge_gamma)(const double *q, const double *qd, const double *p, double *gamma_h);

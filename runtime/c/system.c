@@ -325,7 +325,8 @@ int dep_system_init(dep_system *system, const dep_model *model, const double *p,
     system->angles = dep_doubles(arena, (size_t)nh);
     system->rates = dep_doubles(arena, (size_t)nh);
     system->tau = dep_doubles(arena, (size_t)nh);
-    system->hinge_jacobian = dep_doubles(arena, (size_t)nh * (size_t)model->nq);
+    system->hinge_jacobian = dep_doubles(arena, (size_t)model->nhnz + 1);
+    system->torque_force = dep_doubles(arena, (size_t)model->nq + 1);
     if (arena->failed) {
         return dep_plain_error(error, DEP_MEMORY_ERROR, "out of memory");
     }
@@ -368,12 +369,14 @@ void dep_system_force(const dep_system *system, const double *q, const double *q
     }
     dep_hinge_torques(system, q, qd, system->tau);
     model->hinge_jacobian(q, system->p, system->hinge_jacobian);
+    double *sum = system->torque_force; /* J_h^T tau, summed over the hinges in order */
+    memset(sum, 0, (size_t)system->nq * sizeof *sum);
+    for (int k = 0; k < model->nhnz; ++k) {
+        sum[model->hinge_jacobian_cols[k]] += system->hinge_jacobian[k]
+                                              * system->tau[model->hinge_jacobian_rows[k]];
+    }
     for (int j = 0; j < system->nq; ++j) {
-        double sum = 0.0;
-        for (int k = 0; k < system->nh; ++k) {
-            sum += system->hinge_jacobian[k * system->nq + j] * system->tau[k];
-        }
-        f[j] += sum;
+        f[j] += sum[j];
     }
 }
 

@@ -99,7 +99,8 @@ typedef struct dep_system {
     struct dep_mechanism *mechanism; /* NULL: no latch, stop or stick-slip (or mechanics off) */
     const char **dissipator_names;   /* nd */
     const char **energy_names;       /* ne */
-    double *angles, *rates, *tau, *hinge_jacobian; /* scratch: nh, nh, nh, nh x nq */
+    /* scratch: nh, nh, nh, nhnz (at HINGE_JACOBIAN_ROWS/COLS), nq */
+    double *angles, *rates, *tau, *hinge_jacobian, *torque_force;
 } dep_system;
 
 /* mechanics 0: every hinge free (friction by the regularised law, no latch or stop modes). */

@@ -101,7 +101,7 @@ def test_module_shapes(compiled):
     assert m.gamma(q, qd, 0.0, p).shape == (m.NC,)
     assert m.phi_q(q, 0.0, p).shape == (len(m.PHI_Q_ROWS),)
     assert m.force(q, qd, 0.0, p).shape == (m.NQ,)
-    assert m.hinge_jacobian(q, p).shape == (len(m.HINGES), m.NQ)
+    assert m.hinge_jacobian(q, p).shape == (len(m.HINGE_JACOBIAN_ROWS),)
     assert m.hinge_gamma(q, qd, p).shape == (len(m.HINGES),)
     assert m.hinge_properties(p).shape == (len(m.HINGES), len(m.HINGE_PROPERTIES))
     assert m.outputs(q, qd, 0.0, p).shape == (len(m.OUTPUTS),)

@@ -180,9 +180,9 @@ def hinge_rates(q, qd, p):
 
 
 def hinge_jacobian(q, p):
-    """d theta / d q, shape (NH, NQ)."""
-    J = numpy.zeros((1, 3))
-    J[0, 2] = 1
+    """Values of d theta / d q at (HINGE_JACOBIAN_ROWS, HINGE_JACOBIAN_COLS)."""
+    J = numpy.zeros((1,))
+    J[0] = 1
     return J
 
 

@@ -21,6 +21,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from depsim.runtime import ConstraintSet, EventHit, EventResponse
+from depsim.runtime.constraints import hinge_jacobian_matrix
 
 BAUMGARTE = 10.0  # 1/s
 MUTE = 1e-9  # s: a fired event is not re-detected this soon after its crossing
@@ -79,7 +80,7 @@ class DirectSolver:
             return f
         rates = np.asarray(self.module.hinge_rates(q, qd, self.p), dtype=float)
         tau = -self.friction * np.tanh(rates / np.where(self.friction > 0, self.slip_rate, 1))
-        return f + np.asarray(self.module.hinge_jacobian(q, self.p)).T @ tau
+        return f + hinge_jacobian_matrix(self.module, q, self.p).T @ tau
 
     def augmented(self, q, t) -> tuple[np.ndarray, np.ndarray]:
         cs, nq = self.constraints, len(q)

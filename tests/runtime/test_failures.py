@@ -33,7 +33,8 @@ def drifting_pin(pendulum, start=0.1, rate=1e-2):
                    phi_t=lambda q, t, p: np.array([0.0, 0.0, -shift(t, 1)]),
                    hinge_angles=lambda q, p: np.repeat(pendulum.hinge_angles(q, p), 2),
                    hinge_rates=lambda q, qd, p: np.repeat(pendulum.hinge_rates(q, qd, p), 2),
-                   hinge_jacobian=lambda q, p: np.repeat(pendulum.hinge_jacobian(q, p), 2, 0),
+                   HINGE_JACOBIAN_ROWS=(0, 1), HINGE_JACOBIAN_COLS=(2, 2),
+                   hinge_jacobian=lambda q, p: np.repeat(pendulum.hinge_jacobian(q, p), 2),
                    hinge_gamma=lambda q, qd, p: np.zeros(2),
                    hinge_properties=lambda p: np.full((2, 8), np.nan))
 

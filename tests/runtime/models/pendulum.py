@@ -109,7 +109,7 @@ def hinge_rates(q, qd, p):
 
 
 def hinge_jacobian(q, p):
-    return np.array([[0.0, 0.0, 1.0]])
+    return np.array([1.0])
 
 
 def outputs(q, qd, t, p):
