@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import sympy
-from sympy import ImmutableMatrix
+from sympy import ImmutableMatrix, ImmutableSparseMatrix
 
 from depsim.dsl import ir
 from depsim.dsl.attributes import HINGE_PROPERTIES
@@ -37,11 +37,12 @@ class SymbolicSystem:
     qd: tuple[sympy.Symbol, ...]
     p: tuple[sympy.Symbol, ...]  # named after Model.params
     t: sympy.Symbol
-    mass_matrix: ImmutableMatrix  # (NQ, NQ), a function of p only
+    mass_matrix: ImmutableSparseMatrix  # (NQ, NQ), a function of p only
+    mass_pattern: tuple[tuple[int, int], ...]  # its structural non-zeros, row-major
     constraint_names: tuple[str, ...]  # NC rows, "<joint>.<component>"
     constraint_joints: tuple[str, ...]
     phi: ImmutableMatrix  # (NC, 1)
-    phi_q: ImmutableMatrix  # (NC, NQ)
+    phi_q: ImmutableSparseMatrix  # (NC, NQ)
     phi_q_pattern: tuple[tuple[int, int], ...]  # structural non-zeros of phi_q, row-major
     phi_t: ImmutableMatrix  # (NC, 1)
     gamma: ImmutableMatrix  # (NC, 1)
@@ -50,7 +51,7 @@ class SymbolicSystem:
     slider_names: tuple[str, ...]
     hinge_angles: ImmutableMatrix  # (NH, 1)
     hinge_rates: ImmutableMatrix  # (NH, 1)
-    hinge_jacobian: ImmutableMatrix  # (NH, NQ)
+    hinge_jacobian: ImmutableSparseMatrix  # (NH, NQ)
     hinge_jacobian_pattern: tuple[tuple[int, int], ...]  # its structural non-zeros, row-major
     hinge_gamma: ImmutableMatrix  # (NH, 1), -(J qd)_q qd: a lock J qdd = hinge_gamma
     hinge_properties: ImmutableMatrix  # (NH, len(HINGE_PROPERTIES)), nan where not given
@@ -81,25 +82,36 @@ def column(values) -> ImmutableMatrix:
     return ImmutableMatrix(len(values), 1, values)
 
 
-def jacobian(vector: ImmutableMatrix, symbols: tuple[sympy.Symbol, ...]) -> ImmutableMatrix:
-    """d vector / d symbols, (rows, len(symbols)), also for empty vectors. Each entry is
-    differentiated only by the symbols it contains (a joint's rows touch two members), so
+def jacobian(vector: ImmutableMatrix, symbols: tuple[sympy.Symbol, ...]
+             ) -> ImmutableSparseMatrix:
+    """d vector / d symbols, (rows, len(symbols)), sparse, also for empty vectors. Each entry
+    is differentiated only by the symbols it contains (a joint's rows touch two members), so
     the cost follows the non-zeros, not rows x symbols."""
-    zero = sympy.Integer(0)
-    entries = []
+    index = {s: j for j, s in enumerate(symbols)}
+    entries = {}
     for i in range(vector.rows):
-        present = vector[i].free_symbols
-        entries += [vector[i].diff(s) if s in present else zero for s in symbols]
-    return ImmutableMatrix(vector.rows, len(symbols), entries)
+        for s in sorted(vector[i].free_symbols & index.keys(), key=index.get):
+            derivative = vector[i].diff(s)
+            if derivative != 0:
+                entries[(i, index[s])] = derivative
+    return ImmutableSparseMatrix(vector.rows, len(symbols), entries)
 
 
-def acceleration_rhs(vector: ImmutableMatrix, vector_q: ImmutableMatrix,
+def times(matrix: ImmutableSparseMatrix, vector) -> ImmutableMatrix:
+    """matrix . vector as a column, summing each row's non-zeros only."""
+    terms: list[list[sympy.Expr]] = [[] for _ in range(matrix.rows)]
+    for (i, j), value in sorted(matrix.todok().items()):
+        terms[i].append(value * vector[j])
+    return column(sympy.Add(*row) for row in terms)
+
+
+def acceleration_rhs(vector: ImmutableMatrix, vector_q: ImmutableSparseMatrix,
                      symbols: Coordinates) -> ImmutableMatrix:
     """gamma = -(V_q qd)_q qd - 2 V_qt qd - V_tt of a vector V(q, t): V_q qdd = gamma is
     d^2 V / dt^2 = 0 along the motion (equation 2c)."""
-    qd, t = column(symbols.qd), symbols.t
-    return ImmutableMatrix(-jacobian(vector_q * qd, symbols.q) * qd
-                           - 2 * vector_q.diff(t) * qd - vector.diff(t, 2))
+    qd, t = symbols.qd, symbols.t
+    return ImmutableMatrix(-times(jacobian(times(vector_q, qd), symbols.q), qd)
+                           - 2 * times(vector_q.diff(t), qd) - vector.diff(t, 2))
 
 
 def derive(model: ir.Model) -> SymbolicSystem:
@@ -118,13 +130,14 @@ def derive(model: ir.Model) -> SymbolicSystem:
     loads = derive_loads(model, kin, mass, list(thetas), hinge_jacobian)
     return SymbolicSystem(
         name=model.name, coordinates=symbols.names, q=q, qd=symbols.qd, p=symbols.p, t=t,
-        mass_matrix=mass, constraint_names=tuple(name for name, _, _ in rows),
+        mass_matrix=mass, mass_pattern=_pattern(mass),
+        constraint_names=tuple(name for name, _, _ in rows),
         constraint_joints=tuple(joint for _, joint, _ in rows),
         phi=phi, phi_q=phi_q, phi_q_pattern=_pattern(phi_q), phi_t=phi_t,
         gamma=acceleration_rhs(phi, phi_q, symbols), force=column(loads.force),
         hinge_names=tuple(h.name for h in model.hinges),
         slider_names=tuple(s.name for s in model.sliders),
-        hinge_angles=thetas, hinge_rates=ImmutableMatrix(hinge_jacobian * qd),
+        hinge_angles=thetas, hinge_rates=times(hinge_jacobian, symbols.qd),
         hinge_jacobian=hinge_jacobian, hinge_jacobian_pattern=_pattern(hinge_jacobian),
         hinge_gamma=acceleration_rhs(thetas, hinge_jacobian, symbols),
         hinge_properties=_hinge_properties(model, kin),
@@ -188,16 +201,22 @@ def _hinge_properties(model: ir.Model, kin: Kinematics) -> ImmutableMatrix:
         for hinge in model.hinges for name in HINGE_PROPERTIES])
 
 
-def _mass_matrix(model: ir.Model, kin: Kinematics) -> ImmutableMatrix:
+def _mass_matrix(model: ir.Model, kin: Kinematics) -> ImmutableSparseMatrix:
     """Constant M: diag(m, m, J) per rigid body, then each beam's element mass matrix."""
-    blocks = [sympy.diag(kin.const(b.mass), kin.const(b.mass), kin.const(b.inertia))
-              for b in model.bodies]
-    blocks += [sympy.Matrix(element.mass_matrix) for element in kin.beams]
+    entries, start = {}, 0
+    for b in model.bodies:
+        for k, value in enumerate((b.mass, b.mass, b.inertia)):
+            entries[(start + k, start + k)] = kin.const(value)
+        start += 3
+    for element in kin.beams:
+        block = sympy.Matrix(element.mass_matrix)
+        for (a, b), value in block.todok().items():
+            entries[(start + a, start + b)] = value
+        start += block.rows
     size = len(kin.symbols.q)
-    return ImmutableMatrix(sympy.diag(*blocks)) if blocks else ImmutableMatrix.zeros(size, size)
+    return ImmutableSparseMatrix(size, size, {k: v for k, v in entries.items() if v != 0})
 
 
-def _pattern(matrix: ImmutableMatrix) -> tuple[tuple[int, int], ...]:
+def _pattern(matrix: ImmutableSparseMatrix) -> tuple[tuple[int, int], ...]:
     """Structural non-zeros, row-major."""
-    return tuple((i, j) for i in range(matrix.rows) for j in range(matrix.cols)
-                 if matrix[i, j] != 0)
+    return tuple(sorted(k for k, v in matrix.todok().items() if v != 0))

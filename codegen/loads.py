@@ -41,7 +41,16 @@ class Stiffness:
     D: tuple[sympy.Expr, ...]
 
 
-def implicit_stiffness(model: ir.Model, kin: Kinematics, jacobian: sympy.Matrix) -> Stiffness:
+def sparse_rows(matrix: sympy.SparseMatrix) -> list[dict[int, sympy.Expr]]:
+    """Each row's non-zeros, column -> value, columns ascending."""
+    rows: list[dict[int, sympy.Expr]] = [{} for _ in range(matrix.rows)]
+    for (i, j), value in sorted(matrix.todok().items()):
+        rows[i][j] = value
+    return rows
+
+
+def implicit_stiffness(model: ir.Model, kin: Kinematics,
+                       jacobian: sympy.SparseMatrix) -> Stiffness:
     """Each beam's J^T K J (BeamSymbolic.stiffness) placed at its coordinates and beta times
     it for a damped beam (its damping force is exactly -beta J^T K J qd); each hinge spring
     and damper k g g^T, c g g^T with g = d theta / dq; each cable k g g^T with g the gradient
@@ -60,40 +69,44 @@ def implicit_stiffness(model: ir.Model, kin: Kinematics, jacobian: sympy.Matrix)
             if element.damping is not None:
                 D.setdefault((start + a, start + b), []).append(element.damping * value)
 
-    def outer(target: dict, coefficient: sympy.Expr, gradient: list[sympy.Expr]) -> None:
-        present = [(j, g) for j, g in enumerate(gradient) if g != 0]
+    def outer(target: dict, coefficient: sympy.Expr, gradient: dict[int, sympy.Expr]) -> None:
+        present = sorted((j, g) for j, g in gradient.items() if g != 0)
         for i, gi in present:
             for j, gj in present:
                 target.setdefault((i, j), []).append(coefficient * gi * gj)
 
+    rows = sparse_rows(jacobian)
     for index, hinge in enumerate(model.hinges):
-        gradient = list(jacobian[index, :])
         if hinge.stiffness is not None:
-            outer(K, kin.const(hinge.stiffness), gradient)
+            outer(K, kin.const(hinge.stiffness), rows[index])
         if hinge.damping is not None:
-            outer(D, kin.const(hinge.damping), gradient)
+            outer(D, kin.const(hinge.damping), rows[index])
     for cable in model.cables:
-        gradient = [sympy.Add(*(kin.const(term.coefficient) * jacobian[term.hinge, j]
-                                for term in cable.terms)) for j in range(jacobian.cols)]
-        outer(K, kin.const(cable.stiffness), gradient)
+        gradient: dict[int, list[sympy.Expr]] = {}
+        for term in cable.terms:
+            for j, value in rows[term.hinge].items():
+                gradient.setdefault(j, []).append(kin.const(term.coefficient) * value)
+        outer(K, kin.const(cable.stiffness), {j: sympy.Add(*v) for j, v in gradient.items()})
     pattern = tuple(sorted(set(K) | set(D)))
     zero = sympy.Integer(0)
     return Stiffness(pattern, tuple(sympy.Add(*K.get(place, [zero])) for place in pattern),
                      tuple(sympy.Add(*D.get(place, [zero])) for place in pattern))
 
 
-def derive_loads(model: ir.Model, kin: Kinematics, mass_matrix: sympy.Matrix,
-                 thetas: list[sympy.Expr], jacobian: sympy.Matrix) -> Loads:
+def derive_loads(model: ir.Model, kin: Kinematics, mass_matrix: sympy.SparseMatrix,
+                 thetas: list[sympy.Expr], jacobian: sympy.SparseMatrix) -> Loads:
     """Energies, dissipators and f for a model whose hinge angles and d theta/dq are given."""
     qd = kin.symbols.qd
-    kinetic = sympy.Add(*(mass_matrix[i, j] * qd[i] * qd[j] / 2
-                          for i, j in _nonzero(mass_matrix)))
+    kinetic = sympy.Add(*(value * qd[i] * qd[j] / 2
+                          for (i, j), value in sorted(mass_matrix.todok().items())))
     potentials = _potentials(model, kin, thetas)
     force = _potential_force(kin, potentials)
-    dissipators = _hinge_dissipators(model, kin, jacobian) + _beam_dissipators(model, kin) \
-        + _input_loads(model, kin, jacobian)
+    rows = sparse_rows(jacobian)
+    dissipators = _hinge_dissipators(model, kin, rows) + _beam_dissipators(model, kin) \
+        + _input_loads(model, kin, rows)
     for _, generalized, _power in dissipators:
-        force = [f + g for f, g in zip(force, generalized)]
+        for j, g in generalized.items():
+            force[j] += g
     return Loads(
         energy_names=("kinetic",) + tuple(name for name, _ in potentials),
         energies=(kinetic,) + tuple(energy for _, energy in potentials),
@@ -110,15 +123,16 @@ def _potential_force(kin: Kinematics, potentials: list[tuple[str, sympy.Expr]]) 
                    in zip(kin.model.beams, kin.beams, kin.symbols.beam_q)
                    if hasattr(element, "elastic_force")}
     total = sympy.Add(*(energy for name, energy in potentials if name not in beam_forces))
-    force = {s: -total.diff(s) for s in kin.symbols.q}
+    coordinates = set(kin.symbols.q)
+    parts: dict[sympy.Symbol, list[sympy.Expr]] = {s: [] for s in kin.symbols.q}
+    for term in sympy.Add.make_args(total):  # each term by the coordinates it holds
+        for s in term.free_symbols & coordinates:
+            parts[s].append(term.diff(s))
+    force = {s: -sympy.Add(*parts[s]) for s in kin.symbols.q}
     for element, symbols in beam_forces.values():
         for s, value in zip(symbols, element.elastic_force()):
             force[s] += value
     return [force[s] for s in kin.symbols.q]
-
-
-def _nonzero(matrix: sympy.Matrix) -> list[tuple[int, int]]:
-    return [(i, j) for i in range(matrix.rows) for j in range(matrix.cols) if matrix[i, j] != 0]
 
 
 def _potentials(model: ir.Model, kin: Kinematics,
@@ -157,20 +171,20 @@ def _gravity(model: ir.Model, kin: Kinematics) -> sympy.Expr:
     return energy
 
 
-Dissipator = tuple[str, list[sympy.Expr], sympy.Expr]  # name, generalized force, power removed
+# name, generalized force (coordinate index -> its non-zero entries), power removed
+Dissipator = tuple[str, dict[int, sympy.Expr], sympy.Expr]
 
 
 def _hinge_dissipators(model: ir.Model, kin: Kinematics,
-                       jacobian: sympy.Matrix) -> list[Dissipator]:
+                       rows: list[dict[int, sympy.Expr]]) -> list[Dissipator]:
     """Viscous damping torques on hinge angles."""
-    qd = sympy.Matrix(kin.symbols.qd)
+    qd = kin.symbols.qd
     found = []
-    for index, hinge in enumerate(model.hinges):
-        row = jacobian[index, :]
-        rate = (row * qd)[0, 0]
+    for hinge, row in zip(model.hinges, rows):
         if hinge.damping is not None:
+            rate = sympy.Add(*(g * qd[j] for j, g in row.items()))
             damping = kin.const(hinge.damping)
-            found.append((f"damping.{hinge.name}", list(-damping * rate * row),
+            found.append((f"damping.{hinge.name}", {j: -damping * rate * g for j, g in row.items()},
                           damping * rate**2))
     return found
 
@@ -184,31 +198,34 @@ def _beam_dissipators(model: ir.Model, kin: Kinematics) -> list[Dissipator]:
         start = kin.symbols.q.index(symbols[0])
         rates = kin.symbols.qd[start:start + len(symbols)]
         local = list(element.damping_force(rates))
-        generalized = [sympy.Integer(0)] * len(kin.symbols.q)
-        generalized[start:start + len(symbols)] = local
+        generalized = {start + k: value for k, value in enumerate(local)}
         power = element.damping_power(rates) if hasattr(element, "damping_power") \
             else -sympy.Add(*(r * f for r, f in zip(rates, local)))
         found.append((f"damping.{beam.name}", generalized, power))
     return found
 
 
-def _input_loads(model: ir.Model, kin: Kinematics, jacobian: sympy.Matrix) -> list[Dissipator]:
+def _input_loads(model: ir.Model, kin: Kinematics,
+                 jacobian_rows: list[dict[int, sympy.Expr]]) -> list[Dissipator]:
     """Each input's generalized force and the power it removes (negative while it drives):
     u(t) = p[slot] + p[slot + 1] t per component (ir.Input)."""
-    p, t, q = kin.symbols.p, kin.symbols.t, kin.symbols.q
-    qd = sympy.Matrix(kin.symbols.qd)
+    p, t, q, qd = kin.symbols.p, kin.symbols.t, kin.symbols.q, kin.symbols.qd
+    index = {s: j for j, s in enumerate(q)}
     found = []
     for put in model.inputs:
         values = [p[slot] + p[slot + 1] * t for slot in put.slots]
         if put.kind is ir.InputKind.TORQUE:
-            rows = [jacobian[put.hinge, :]]
+            rows = [jacobian_rows[put.hinge]]
         else:
             position = kin.point_position(put.point.member, put.point.point)
-            rows = [sympy.Matrix([[coordinate.diff(s) for s in q]]) for coordinate in position]
-        generalized = [sympy.Integer(0)] * len(q)
+            rows = [{index[s]: coordinate.diff(s)
+                     for s in sorted(coordinate.free_symbols & index.keys(), key=index.get)}
+                    for coordinate in position]
+        generalized: dict[int, sympy.Expr] = {}
         power = sympy.Integer(0)
         for value, row in zip(values, rows):
-            generalized = [g + value * r for g, r in zip(generalized, row)]
-            power -= value * (row * qd)[0, 0]
+            for j, r in row.items():
+                generalized[j] = generalized.get(j, sympy.Integer(0)) + value * r
+            power -= value * sympy.Add(*(r * qd[j] for j, r in row.items()))
         found.append((f"input.{put.name}", generalized, power))
     return found

@@ -112,7 +112,8 @@ def function_specs(system: SymbolicSystem) -> tuple[FunctionSpec, ...]:
     start = (tuple(zip(s.v, s.tree_v0)) + tuple(zip(s.vd, s.tree_vd0)),) if s.v else ()
     steps = {"initial_state": start + placed, "tree_pose": s.tree_pose, "tree_tangent": placed}
     matrices = {
-        "mass_matrix": (s.mass_matrix,), "initial_state": (q, qd),
+        "mass_matrix": (column(s.mass_matrix[i, j] for i, j in s.mass_pattern),),
+        "initial_state": (q, qd),
         "tree_values": (s.tree_v0, s.tree_vd0), "tree_pose": (q,), "tree_tangent": (qd,),
         "loop_targets": (s.loop_angles, s.loop_rates), "phi": (s.phi,),
         "phi_q": (column(s.phi_q[i, j] for i, j in s.phi_q_pattern),), "phi_t": (s.phi_t,),
@@ -150,9 +151,10 @@ def lower_function(system: SymbolicSystem, spec: FunctionSpec,
     """CSE the function's non-zero entries together and print them through `printer`; a
     function with steps computes them first (`_program`)."""
     assert tuple(a for a in ARGUMENT_ORDER if a in spec.args) == spec.args, spec.args
-    places = [(r, i, j) for r, (_, matrix) in enumerate(spec.results)
-              for i in range(matrix.rows) for j in range(matrix.cols) if matrix[i, j] != 0]
-    exprs = [spec.results[r][1][i, j] for r, i, j in places]
+    entries = [matrix.todok() for _, matrix in spec.results]  # the non-zeros (sparse or not)
+    places = [(r, i, j) for r, found in enumerate(entries)
+              for (i, j), value in sorted(found.items()) if value != 0]
+    exprs = [entries[r][i, j] for r, i, j in places]
     names = sympy.numbered_symbols("x")
     program, exprs = _program(spec.steps, exprs, names)
     definitions, reduced = sympy.cse(exprs, symbols=names)
@@ -260,6 +262,8 @@ def lower_module(model: ir.Model, system: SymbolicSystem, printer: PrinterFactor
         "INPUT_SLOTS": tuple(s for put in model.inputs for s in put.slots),
         "STIFFNESS_ROWS": tuple(i for i, _ in system.stiffness_pattern),
         "STIFFNESS_COLS": tuple(j for _, j in system.stiffness_pattern),
+        "MASS_ROWS": tuple(i for i, _ in system.mass_pattern),
+        "MASS_COLS": tuple(j for _, j in system.mass_pattern),
     }
     tables = tuple(TableView(t.constant, t.field, t.ctype, values[t.constant])
                    for t in interface.TABLES)

@@ -12,6 +12,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .interface import dense
+
 
 @dataclass(frozen=True)
 class LinearConstraint:
@@ -33,14 +35,6 @@ class LinearConstraint:
 
     def gamma(self, q, qd, t, p):
         return 0.0
-
-
-def hinge_jacobian_matrix(module, q, p) -> np.ndarray:
-    """d theta / d q, (NH, NQ), from the module's values at HINGE_JACOBIAN_ROWS/COLS."""
-    J = np.zeros((len(module.HINGES), module.NQ))
-    J[list(module.HINGE_JACOBIAN_ROWS), list(module.HINGE_JACOBIAN_COLS)] = \
-        module.hinge_jacobian(q, p)
-    return J
 
 
 @dataclass(frozen=True)
@@ -68,7 +62,7 @@ class HingeLock:
         return float(self.module.hinge_angles(q, p)[self._index] - self.angle)
 
     def jacobian(self, q, t, p):
-        return hinge_jacobian_matrix(self.module, q, p)[self._index]
+        return dense(self.module, "hinge_jacobian", q, p)[self._index]
 
     def phi_t(self, q, t, p):
         return 0.0

@@ -19,6 +19,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 ABI = 7  # DEP_MODEL_ABI: bumped whenever the dep_model struct changes
 
 ARGUMENTS = ("v", "vd", "q", "qd", "t", "p")  # every function takes a subsequence, in this order
@@ -84,6 +86,7 @@ SIZES = (
     Size("ni", "INPUTS", "inputs (external loads a run or a co-simulation drives)"),
     Size("nhnz", "HINGE_JACOBIAN_ROWS", "structural non-zeros of hinge_jacobian"),
     Size("nkz", "STIFFNESS_ROWS", "structural non-zeros of the stiffness (0: no beams)"),
+    Size("nmz", "MASS_ROWS", "structural non-zeros of the mass matrix"),
 )
 
 TABLES = (
@@ -118,13 +121,16 @@ TABLES = (
     Table("stiffness_rows", "STIFFNESS_ROWS", "const int", "nkz",
           "row-major sorted: where the stiff forces' Jacobian can be non-zero"),
     Table("stiffness_cols", "STIFFNESS_COLS", "const int", "nkz", ""),
+    Table("mass_rows", "MASS_ROWS", "const int", "nmz",
+          "row-major sorted: where the mass matrix is non-zero (its diagonal for rigid bodies)"),
+    Table("mass_cols", "MASS_COLS", "const int", "nmz", ""),
 )
 
 SETTINGS = (("t_end", "T_END"), ("tol", "TOL"), ("dt_out", "DT_OUT"))
 
 FUNCTIONS = (
-    Function("mass_matrix", ("p",), (Output("M", ("nq", "nq")),),
-             "Constant mass matrix M, shape (NQ, NQ)."),
+    Function("mass_matrix", ("p",), (Output("M", ("nmz",)),),
+             "Values of the constant mass matrix M at (MASS_ROWS, MASS_COLS)."),
     Function("initial_state", ("p",), (Output("q0", ("nq",)), Output("qd0", ("nq",))),
              "Initial pose and velocities placed along the assembly tree (q0, qd0)."),
     Function("tree_values", ("p",), (Output("v0", ("nv",)), Output("vd0", ("nv",))),
@@ -172,6 +178,24 @@ FUNCTION_NAMES = tuple(f.name for f in FUNCTIONS)
 MODULE_CONSTANTS = tuple(dict.fromkeys(
     [c for _, c in IDENTITY] + [s.constant for s in SIZES[:3]] + [t.constant for t in TABLES]
     + [c for _, c in SETTINGS]))
+
+
+# The functions returning a sparse matrix's values at its pattern: (rows table, columns table,
+# the table whose length is the matrix's row count).
+PATTERNS = {"phi_q": ("PHI_Q_ROWS", "PHI_Q_COLS", "CONSTRAINTS"),
+            "hinge_jacobian": ("HINGE_JACOBIAN_ROWS", "HINGE_JACOBIAN_COLS", "HINGES"),
+            "mass_matrix": ("MASS_ROWS", "MASS_COLS", "COORDINATES")}
+
+
+def dense(module, function: str, *args) -> np.ndarray:
+    """A model function of PATTERNS as the whole matrix (zeros elsewhere), e.g.
+    `dense(module, "mass_matrix", p)`: (NQ, NQ); "phi_q": (NC, NQ), "hinge_jacobian": (NH, NQ).
+    For analysis and tests; the integrator works on the values at the pattern."""
+    rows, cols, count = PATTERNS[function]
+    matrix = np.zeros((len(getattr(module, count)), len(module.COORDINATES)))
+    matrix[list(getattr(module, rows)), list(getattr(module, cols))] = getattr(module, function)(
+        *args)
+    return matrix
 
 
 def check_module(module) -> None:

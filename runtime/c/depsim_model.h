@@ -38,6 +38,7 @@ typedef struct dep_model {
     int ni; /* inputs (external loads a run or a co-simulation drives) */
     int nhnz; /* structural non-zeros of hinge_jacobian */
     int nkz; /* structural non-zeros of the stiffness (0: no beams) */
+    int nmz; /* structural non-zeros of the mass matrix */
 
     /* tables (NULL when empty) */
     const char *const *coordinate_names; /* nq */
@@ -64,12 +65,14 @@ typedef struct dep_model {
     const int *input_slots; /* ni, u_k(t) = p[slot] + p[slot + 1] t: the parameters holding input k */
     const int *stiffness_rows; /* nkz, row-major sorted: where the stiff forces' Jacobian can be non-zero */
     const int *stiffness_cols; /* nkz */
+    const int *mass_rows; /* nmz, row-major sorted: where the mass matrix is non-zero (its diagonal for rigid bodies) */
+    const int *mass_cols; /* nmz */
 
     /* the model's simulation settings */
     double t_end, tol, dt_out;
 
     /* functions (docs/generated-module.md) */
-    /* Constant mass matrix M, shape (NQ, NQ). */
+    /* Values of the constant mass matrix M at (MASS_ROWS, MASS_COLS). */
     void (*mass_matrix)(const double *p, double *M);
     /* Initial pose and velocities placed along the assembly tree (q0, qd0). */
     void (*initial_state)(const double *p, double *q0, double *qd0);

@@ -124,24 +124,10 @@ int dep_project_velocities(dep_constraints *cs, dep_multipliers *mp, dep_measure
     return status;
 }
 
-static double kinetic_twice(const dep_mass *mass, const double *qd)
-{
-    int n = mass->n;
-    double sum = 0.0;
-    for (int i = 0; i < n; ++i) {
-        double row = 0.0;
-        for (int j = 0; j < n; ++j) {
-            row += mass->matrix[i * n + j] * qd[j];
-        }
-        sum += qd[i] * row;
-    }
-    return sum;
-}
-
 /* 0.5 (a M a - b M b): the kinetic energy removed going from qd a to qd b (J). */
 double dep_energy_loss(const dep_mass *mass, const double *a, const double *b)
 {
-    return 0.5 * (kinetic_twice(mass, a) - kinetic_twice(mass, b));
+    return 0.5 * (dep_mass_quadratic(mass, a) - dep_mass_quadratic(mass, b));
 }
 
 /* plastic_impact: qd+ (qd_new) projected from qd onto the velocity constraints of `cs`; a

@@ -218,7 +218,7 @@ static const char *moving_most(const dep_run *run, const double *qd)
     int nq = run->nq, best = 0;
     double largest = -1.0;
     for (int j = 0; j < nq; ++j) {
-        double size = fabs(qd[j]) * sqrt(fabs(run->system.mass.matrix[(size_t)j * nq + j]));
+        double size = fabs(qd[j]) * sqrt(fabs(run->system.mass.entry_diagonal[j]));
         if (size > largest) {
             largest = size;
             best = j;

@@ -60,16 +60,7 @@ int dep_implicit_init(dep_implicit *im, const dep_system *system, int ny, dep_ar
         return DEP_MEMORY_ERROR;
     }
     /* W's envelope: M's and K's non-zeros on or below the diagonal */
-    const double *M = system->mass.matrix;
-    for (int i = 0; i < nq; ++i) {
-        first[i] = i;
-        for (int j = 0; j < i; ++j) {
-            if (M[(size_t)i * nq + j] != 0.0) {
-                first[i] = j;
-                break;
-            }
-        }
-    }
+    dep_mass_envelope_start(&system->mass, first);
     for (int k = 0; k < nkz; ++k) {
         int i = model->stiffness_rows[k], j = model->stiffness_cols[k];
         if (j < first[i]) {
@@ -96,11 +87,7 @@ int dep_implicit_init(dep_implicit *im, const dep_system *system, int ny, dep_ar
     if (arena->failed) {
         return DEP_MEMORY_ERROR;
     }
-    for (int i = 0; i < nq; ++i) {
-        for (int j = first[i]; j <= i; ++j) {
-            DEP_ENVELOPE_AT(&im->W, im->mass_envelope, i, j) = M[(size_t)i * nq + j];
-        }
-    }
+    dep_mass_to_envelope(&system->mass, &im->W, im->mass_envelope);
     for (int k = 0; k < nkz; ++k) {
         int i = model->stiffness_rows[k], j = model->stiffness_cols[k];
         im->lower[k] = j <= i ? im->W.offset[i] + j - im->W.first[i] : -1;

@@ -16,23 +16,25 @@ static int factor_mass(dep_mass *mass, const char *const *coordinates, dep_arena
                        dep_error *error)
 {
     int n = mass->n;
-    const double *M = mass->matrix;
     mass->diagonal = 1;
-    for (int i = 0; i < n * n; ++i) {
-        if (i / n != i % n && M[i] != 0.0) {
+    for (int k = 0; k < mass->nnz; ++k) {
+        if (mass->rows[k] == mass->cols[k]) {
+            mass->entry_diagonal[mass->rows[k]] = mass->values[k];
+        } else if (mass->values[k] != 0.0) {
             mass->diagonal = 0;
         }
     }
     if (mass->diagonal) {
+        const double *M = mass->entry_diagonal;
         int k = 0, nonpositive = 0;
         for (int i = 0; i < n; ++i) {
-            nonpositive |= M[i * n + i] <= 0;
-            k = M[i * n + i] < M[k * n + k] ? i : k;
+            nonpositive |= M[i] <= 0;
+            k = M[i] < M[k] ? i : k;
         }
         if (nonpositive) {
             char what[DEP_NAME_MAX + 120];
             snprintf(what, sizeof what, "mass matrix entry of coordinate '%s' is %.3g; every "
-                     "body needs positive mass and inertia", coordinates[k], M[k * n + k]);
+                     "body needs positive mass and inertia", coordinates[k], M[k]);
             return dep_solver_error(error, 0, 0.0, "setup", NULL, NULL, 0, 0.0, what,
                                     "check the body's mass and inertia");
         }
@@ -41,7 +43,7 @@ static int factor_mass(dep_mass *mass, const char *const *coordinates, dep_arena
             return dep_plain_error(error, DEP_MEMORY_ERROR, "out of memory");
         }
         for (int i = 0; i < n; ++i) {
-            mass->inverse_diagonal[i] = 1.0 / M[i * n + i];
+            mass->inverse_diagonal[i] = 1.0 / M[i];
         }
         return DEP_OK;
     }
@@ -49,30 +51,50 @@ static int factor_mass(dep_mass *mass, const char *const *coordinates, dep_arena
     if (first == NULL) {
         return dep_plain_error(error, DEP_MEMORY_ERROR, "out of memory");
     }
-    for (int i = 0; i < n; ++i) { /* each row from its first non-zero (beams: a band) */
-        first[i] = i;
-        for (int j = 0; j < i; ++j) {
-            if (M[i * n + j] != 0.0 || M[j * n + i] != 0.0) {
-                first[i] = j;
-                break;
-            }
-        }
-    }
+    dep_mass_envelope_start(mass, first); /* each row from its first non-zero (beams: a band) */
     dep_envelope *e = &mass->factor;
     if (dep_envelope_init(e, n, first, arena) != DEP_OK) {
         return dep_plain_error(error, DEP_MEMORY_ERROR, "out of memory");
     }
-    for (int i = 0; i < n; ++i) {
-        for (int j = first[i]; j <= i; ++j) {
-            DEP_ENVELOPE_AT(e, e->A, i, j) = M[i * n + j];
-        }
-    }
+    dep_mass_to_envelope(mass, e, e->A);
     if (!dep_envelope_factor(e)) {
         return dep_solver_error(error, 0, 0.0, "setup", NULL, NULL, 0, 0.0,
                                 "mass matrix is not positive definite",
                                 "check masses, inertias and beam properties");
     }
     return DEP_OK;
+}
+
+void dep_mass_envelope_start(const dep_mass *mass, int *first)
+{
+    for (int i = 0; i < mass->n; ++i) {
+        first[i] = i;
+    }
+    for (int k = 0; k < mass->nnz; ++k) {
+        int i = mass->rows[k], j = mass->cols[k], low = i < j ? i : j, high = i < j ? j : i;
+        if (mass->values[k] != 0.0 && low < first[high]) {
+            first[high] = low;
+        }
+    }
+}
+
+void dep_mass_to_envelope(const dep_mass *mass, const dep_envelope *e, double *A)
+{
+    for (int k = 0; k < mass->nnz; ++k) {
+        int i = mass->rows[k], j = mass->cols[k];
+        if (j <= i && j >= e->first[i]) {
+            DEP_ENVELOPE_AT(e, A, i, j) = mass->values[k];
+        }
+    }
+}
+
+double dep_mass_quadratic(const dep_mass *mass, const double *x)
+{
+    double sum = 0.0;
+    for (int k = 0; k < mass->nnz; ++k) {
+        sum += x[mass->rows[k]] * mass->values[k] * x[mass->cols[k]];
+    }
+    return sum;
 }
 
 void dep_mass_solve(const dep_mass *mass, const double *b, double *x)
@@ -321,7 +343,11 @@ int dep_system_init(dep_system *system, const dep_model *model, const double *p,
     system->nq = model->nq;
     system->nh = nh;
     system->mass.n = model->nq;
-    system->mass.matrix = dep_doubles(arena, (size_t)model->nq * (size_t)model->nq);
+    system->mass.nnz = model->nmz;
+    system->mass.rows = model->mass_rows;
+    system->mass.cols = model->mass_cols;
+    system->mass.values = dep_doubles(arena, (size_t)model->nmz + 1);
+    system->mass.entry_diagonal = dep_doubles(arena, (size_t)model->nq + 1);
     system->angles = dep_doubles(arena, (size_t)nh);
     system->rates = dep_doubles(arena, (size_t)nh);
     system->tau = dep_doubles(arena, (size_t)nh);
@@ -336,7 +362,7 @@ int dep_system_init(dep_system *system, const dep_model *model, const double *p,
     if (name_terms(system, arena) != DEP_OK) {
         return dep_plain_error(error, DEP_MEMORY_ERROR, "out of memory");
     }
-    model->mass_matrix(p, system->mass.matrix);
+    model->mass_matrix(p, system->mass.values);
     return factor_mass(&system->mass, model->coordinate_names, arena, error);
 }
 

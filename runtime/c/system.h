@@ -58,13 +58,20 @@ void dep_envelope_times(const dep_envelope *e, const double *values, const doubl
                         double *out);
 
 typedef struct dep_mass {
-    int n, diagonal;
-    double *matrix;           /* n x n */
+    int n, nnz, diagonal;
+    const int *rows, *cols;   /* the model's MASS_ROWS/COLS: where M is non-zero */
+    double *values;           /* nnz: M there */
+    double *entry_diagonal;   /* n: M_jj */
     double *inverse_diagonal; /* n, when diagonal */
     dep_envelope factor;      /* otherwise: M in envelope form and its Cholesky factor */
 } dep_mass;
 
 void dep_mass_solve(const dep_mass *mass, const double *b, double *x); /* x = M^-1 b; x may be b */
+double dep_mass_quadratic(const dep_mass *mass, const double *x);     /* x^T M x */
+/* M's envelope (first[i]: row i's first non-zero column) and its lower part into A (zero on
+   entry) in envelope form e. */
+void dep_mass_envelope_start(const dep_mass *mass, int *first);
+void dep_mass_to_envelope(const dep_mass *mass, const dep_envelope *e, double *A);
 /* x = (L L^T)^-1 b for a dense lower Cholesky factor L (n x n); x may be b. */
 void dep_cholesky_solve(const double *L, int n, const double *b, double *x);
 

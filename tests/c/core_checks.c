@@ -160,8 +160,15 @@ static int project(int nq, int nc)
     }
     given_mass = M;
     given_nq = nq;
+    int *every_row = calloc((size_t)nq * (size_t)nq, sizeof *every_row);
+    int *every_col = calloc((size_t)nq * (size_t)nq, sizeof *every_col);
+    for (int k = 0; every_row != NULL && every_col != NULL && k < nq * nq; ++k) {
+        every_row[k] = k / nq; /* M given whole: its pattern is every entry */
+        every_col[k] = k % nq;
+    }
     dep_model model = {.abi = DEP_MODEL_ABI, .name = "projection", .nq = nq, .nc = nc,
-                       .nnz = nc * nq, .mass_matrix = mass_matrix};
+                       .nnz = nc * nq, .nmz = nq * nq, .mass_rows = every_row,
+                       .mass_cols = every_col, .mass_matrix = mass_matrix};
     parts x;
     memset(&x, 0, sizeof x);
     dep_constraints cs; /* the rows' pattern: every coordinate, so J is its own storage */
@@ -189,7 +196,8 @@ static int project(int nq, int nc)
         || dep_multipliers_init(&mp, &x.system.mass, &cs, nc, &x.arena) != DEP_OK
         || dep_measurement_init(&slots[0], &model, nc, 0, 0, &x.arena) != DEP_OK
         || dep_measurement_init(&slots[1], &model, nc, 0, 0, &x.arena) != DEP_OK
-        || phi_t == NULL || mu == NULL || out == NULL || start == NULL || cols == NULL) {
+        || phi_t == NULL || mu == NULL || out == NULL || start == NULL || cols == NULL
+        || every_row == NULL || every_col == NULL) {
         return fail("setup");
     }
     if (dep_project_velocity(&mp, J, 1, nc, qd, phi_t, 1e-14, out, mu, pair, &report,
@@ -201,6 +209,7 @@ static int project(int nq, int nc)
     }
     printf("iterations %d\n", report.iterations);
     free(M), free(J), free(qd), free(phi_t), free(mu), free(out), free(start), free(cols);
+    free(every_row), free(every_col);
     dep_arena_free(&x.arena);
     return 0;
 }

@@ -8,16 +8,10 @@ import numpy as np
 
 from fd_states import random_states
 
-from depsim.runtime.constraints import hinge_jacobian_matrix
+from depsim.runtime.interface import dense
 
 H = 1e-6  # first differences
 H2 = 1e-4  # second differences
-
-
-def dense_phi_q(module, q, t, p):
-    jacobian = np.zeros((module.NC, module.NQ))
-    jacobian[module.PHI_Q_ROWS, module.PHI_Q_COLS] = module.phi_q(q, t, p)
-    return jacobian
 
 
 def central_jacobian(function, x):
@@ -39,7 +33,7 @@ def test_phi_q_is_the_jacobian_of_phi(compiled):
     m = compiled.module
     for s in random_states(m):
         numeric = central_jacobian(lambda q: m.phi(q, s.t, s.p), s.q)
-        assert_close(dense_phi_q(m, s.q, s.t, s.p), numeric)
+        assert_close(dense(m, "phi_q", s.q, s.t, s.p), numeric)
 
 
 def test_phi_q_pattern_is_sorted_and_unique(compiled):
@@ -93,7 +87,7 @@ def test_hinge_jacobian_and_rates(compiled):
     m = compiled.module
     for s in random_states(m):
         numeric = central_jacobian(lambda q: m.hinge_angles(q, s.p), s.q)
-        jacobian = hinge_jacobian_matrix(m, s.q, s.p)  # zero outside the pattern
+        jacobian = dense(m, "hinge_jacobian", s.q, s.p)  # zero outside the pattern
         assert_close(jacobian, numeric)  # so the derivative vanishes there too
         assert_close(m.hinge_rates(s.q, s.qd, s.p), jacobian @ s.qd, rtol=1e-12)
     pairs = list(zip(m.HINGE_JACOBIAN_ROWS, m.HINGE_JACOBIAN_COLS))
@@ -112,7 +106,7 @@ def test_hinge_gamma_is_minus_the_second_derivative_of_theta(compiled):
 def test_kinetic_energy_and_mass_matrix(compiled):
     m = compiled.module
     for s in random_states(m):
-        mass = m.mass_matrix(s.p)
+        mass = dense(m, "mass_matrix", s.p)
         np.testing.assert_array_equal(mass, mass.T)
         assert np.all(np.linalg.eigvalsh(mass) > 0)
         assert_close(m.energy(s.q, s.qd, s.t, s.p)[0], 0.5 * s.qd @ mass @ s.qd, rtol=1e-12)

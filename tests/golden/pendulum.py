@@ -43,6 +43,8 @@ INPUT_UNITS = ()
 INPUT_SLOTS = ()
 STIFFNESS_ROWS = ()
 STIFFNESS_COLS = ()
+MASS_ROWS = (0, 1, 2)
+MASS_COLS = (0, 1, 2)
 
 T_END = 10.0
 TOL = 1e-09
@@ -50,11 +52,11 @@ DT_OUT = 0.01
 
 
 def mass_matrix(p):
-    """Constant mass matrix M, shape (NQ, NQ)."""
-    M = numpy.zeros((3, 3))
-    M[0, 0] = p[1]
-    M[1, 1] = p[1]
-    M[2, 2] = (1/12)*p[0]**2*p[1]
+    """Values of the constant mass matrix M at (MASS_ROWS, MASS_COLS)."""
+    M = numpy.zeros((3,))
+    M[0] = p[1]
+    M[1] = p[1]
+    M[2] = (1/12)*p[0]**2*p[1]
     return M
 
 

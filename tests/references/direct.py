@@ -21,7 +21,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from depsim.runtime import ConstraintSet, EventHit, EventResponse
-from depsim.runtime.constraints import hinge_jacobian_matrix
+from depsim.runtime.interface import dense
 
 BAUMGARTE = 10.0  # 1/s
 MUTE = 1e-9  # s: a fired event is not re-detected this soon after its crossing
@@ -65,7 +65,7 @@ class DirectSolver:
         self.module = module
         self.p = np.array(module.PARAMETER_DEFAULTS if params is None else params, dtype=float)
         self.tol = float(module.TOL if tol is None else tol)
-        self.mass = np.asarray(module.mass_matrix(self.p), dtype=float)
+        self.mass = dense(module, "mass_matrix", self.p)
         self.constraints = ConstraintSet(module, self.p)
         table = np.asarray(module.hinge_properties(self.p), dtype=float).reshape(
             len(module.HINGES), len(module.HINGE_PROPERTIES))
@@ -80,7 +80,7 @@ class DirectSolver:
             return f
         rates = np.asarray(self.module.hinge_rates(q, qd, self.p), dtype=float)
         tau = -self.friction * np.tanh(rates / np.where(self.friction > 0, self.slip_rate, 1))
-        return f + hinge_jacobian_matrix(self.module, q, self.p).T @ tau
+        return f + dense(self.module, "hinge_jacobian", q, self.p).T @ tau
 
     def augmented(self, q, t) -> tuple[np.ndarray, np.ndarray]:
         cs, nq = self.constraints, len(q)

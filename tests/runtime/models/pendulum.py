@@ -37,7 +37,7 @@ T_END, TOL, DT_OUT = 10.0, 1e-9, 0.01
 
 def mass_matrix(p):
     L, m = p[0], p[1]
-    return np.diag([m, m, m * L * L / 12])
+    return np.array([m, m, m * L * L / 12])
 
 
 def initial_state(p):
@@ -58,6 +58,7 @@ INPUT_UNITS = ()
 INPUT_SLOTS = ()
 STIFFNESS_ROWS = ()  # no stiff forces: the explicit step throughout
 STIFFNESS_COLS = ()
+MASS_ROWS = MASS_COLS = (0, 1, 2)  # diagonal
 
 
 def tree_values(p):

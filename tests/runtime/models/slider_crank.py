@@ -46,7 +46,7 @@ def _masses(p):
 
 
 def mass_matrix(p):
-    return np.diag(_masses(p))
+    return _masses(p)
 
 
 def initial_state(p):
@@ -75,6 +75,7 @@ INPUT_UNITS = ()
 INPUT_SLOTS = ()
 STIFFNESS_ROWS = ()  # no stiff forces: the explicit step throughout
 STIFFNESS_COLS = ()
+MASS_ROWS = MASS_COLS = tuple(range(9))  # diagonal
 
 
 def tree_values(p):
