@@ -38,10 +38,11 @@ PROGRAM_SOURCE = "main.c"  # the program's entry point, left out of the library
 
 
 @dataclass(frozen=True)
-class CEntry:
-    """One assignment `name[flat] = value;` and, for matrices, its `[row][col]` as a note."""
+class CStatement:
+    """`const double name = value;` (a temporary, `result` empty) or `result[flat] = value;`."""
 
-    flat: int
+    result: str
+    name: str
     value: str
     note: str
 
@@ -52,7 +53,6 @@ class CResult:
     size: int
     zero_fill: bool  # some entries are structurally zero: clear the array first (results
     # are written completely, as NumPy's start from zeros)
-    entries: tuple[CEntry, ...]
 
 
 @dataclass(frozen=True)
@@ -61,8 +61,8 @@ class CFunction:
     declaration: str  # "const double *q, double t, const double *p, double *phi"
     summary: str
     unused: tuple[str, ...]  # parameters the body never reads: `(void)name;`
-    temporaries: tuple  # lower.Assignment
     results: tuple[CResult, ...]
+    statements: tuple[CStatement, ...]
 
 
 @dataclass(frozen=True)
@@ -112,14 +112,17 @@ def c_function(f: FunctionView) -> CFunction:
         size = 1
         for extent in r.shape:
             size *= extent
-        entries = tuple(CEntry(e.flat, e.value, "" if len(e.index) == 1 else
-                               f"  /* [{e.index[0]}][{e.index[1]}] */") for e in r.entries)
-        results.append(CResult(r.name, size, len(entries) < size, entries))
+        results.append(CResult(r.name, size, len(r.entries) < size))
         if size == 0:  # an empty result (no dissipators, no outputs): nothing to write
             unused.append(r.name)
+    statements = tuple(
+        CStatement("", s.assignment.name, s.assignment.value, "") if s.result < 0 else
+        CStatement(f.results[s.result].name, str(s.entry.flat), s.entry.value,
+                   "" if len(s.entry.index) == 1
+                   else f"  /* [{s.entry.index[0]}][{s.entry.index[1]}] */")
+        for s in f.statements)
     declaration = interface.c_declaration(_INTERFACE[f.name])
-    return CFunction(f.name, declaration, f.summary, tuple(unused), f.temporaries,
-                     tuple(results))
+    return CFunction(f.name, declaration, f.summary, tuple(unused), tuple(results), statements)
 
 
 _LITERALS = {"const char *const": c_string, "const double": c_double, "const int": str}

@@ -51,15 +51,28 @@ class ResultView:
 
 
 @dataclass(frozen=True)
+class Statement:
+    """One line of a function's body: a temporary (`result` is -1) or entry `entry` of result
+    `result`."""
+
+    result: int
+    assignment: Assignment | None = None
+    entry: Entry | None = None
+
+
+@dataclass(frozen=True)
 class FunctionView:
     """One generated function: arguments (names from ARGUMENT_ORDER), a one-line summary,
-    CSE temporaries in evaluation order, and its results (more than one: returned as a tuple)."""
+    CSE temporaries, its results (more than one: returned as a tuple), and the body: every
+    temporary and entry in evaluation order, each temporary just before its first use (a
+    result's entry as soon as its temporaries are there, so few values are live at once)."""
 
     name: str
     args: tuple[str, ...]
     summary: str
     temporaries: tuple[Assignment, ...]
     results: tuple[ResultView, ...]
+    statements: tuple[Statement, ...]
     ieee: bool = False  # evaluated with IEEE semantics (IEEE_FUNCTIONS)
 
 
@@ -158,20 +171,45 @@ def lower_function(system: SymbolicSystem, spec: FunctionSpec,
     names = sympy.numbered_symbols("x")
     program, exprs = _program(spec.steps, exprs, names)
     definitions, reduced = sympy.cse(exprs, symbols=names)
-    definitions = program + definitions
+    definitions, reduced = _split_sums(program + definitions, reduced, names)
     inputs = slots(system, spec.args)
     _check_inputs(spec.name, definitions, reduced, inputs)
     print_ = printer(inputs, [name for name, _ in definitions]).doprint
-    temporaries = tuple(Assignment(name.name, print_(value)) for name, value in definitions)
+    printed = {name: Assignment(name.name, print_(value)) for name, value in definitions}
     entries: list[list[Entry]] = [[] for _ in spec.results]
-    for (r, i, j), value in zip(places, reduced):
+    statements: list[Statement] = []
+    order = _demand_order(definitions, reduced)
+    for (r, i, j), value, needed in zip(places, reduced, order):
+        statements += [Statement(-1, printed[name]) for name in needed]
         cols = spec.results[r][1].cols
         index = (i,) if spec.flatten else (i, j)
         entries[r].append(Entry(index, i * cols + j, print_(value)))
+        statements.append(Statement(r, entry=entries[r][-1]))
     results = tuple(ResultView(name, _shape(matrix, spec.flatten), tuple(found))
                     for (name, matrix), found in zip(spec.results, entries))
-    return FunctionView(spec.name, spec.args, spec.summary, temporaries, results,
-                        spec.name in IEEE_FUNCTIONS)
+    return FunctionView(spec.name, spec.args, spec.summary, tuple(printed.values()), results,
+                        tuple(statements), spec.name in IEEE_FUNCTIONS)
+
+
+def _demand_order(definitions, reduced) -> list[list[sympy.Symbol]]:
+    """For each result expression, the temporaries to evaluate just before it (those it needs,
+    directly or not, that no earlier result needed), dependencies first. Definitions are in
+    dependency order, so each temporary's own needs come earlier in that order."""
+    position = {name: k for k, (name, _) in enumerate(definitions)}
+    values = dict(definitions)
+    done: set[sympy.Symbol] = set()
+    order = []
+    for value in reduced:
+        needed, stack = set(), [s for s in value.free_symbols if s in position]
+        while stack:  # iterative: a placement chain is thousands deep
+            name = stack.pop()
+            if name in done or name in needed:
+                continue
+            needed.add(name)
+            stack += [s for s in values[name].free_symbols if s in position]
+        done |= needed
+        order.append(sorted(needed, key=position.get))
+    return order
 
 
 def _program(steps: tuple[Group, ...], exprs: list[sympy.Expr], names
@@ -214,6 +252,33 @@ def _program(steps: tuple[Group, ...], exprs: list[sympy.Expr], names
     if window:
         flush()
     return temporaries, [e.xreplace(rename) for e in exprs]
+
+
+SUM_CHUNK = 32  # terms per statement: a model's long sums (the kinetic energy of every body)
+
+
+def _split_sums(definitions, reduced, names):
+    """Every sum of more than SUM_CHUNK terms as a running sum over temporaries, SUM_CHUNK
+    terms a statement: one expression of thousands of terms costs a C compiler time growing
+    faster than its length. Same value, the terms added in a fixed order."""
+    out: list[tuple[sympy.Symbol, sympy.Expr]] = []
+
+    def split(value: sympy.Expr) -> sympy.Expr:
+        if not isinstance(value, sympy.Add) or len(value.args) <= SUM_CHUNK:
+            return value
+        terms, partial = value.args, None
+        for start in range(0, len(terms) - SUM_CHUNK, SUM_CHUNK):
+            chunk = terms[start:start + SUM_CHUNK]
+            symbol = next(names)
+            out.append((symbol, sympy.Add(*chunk) if partial is None
+                        else sympy.Add(partial, *chunk)))
+            partial = symbol
+        return sympy.Add(partial, *terms[start + SUM_CHUNK:])
+
+    for symbol, value in definitions:
+        out.append((symbol, split(value)))
+    reduced = [split(value) for value in reduced]
+    return out, reduced
 
 
 def _shape(matrix: sympy.MatrixBase, flatten: bool) -> tuple[int, ...]:

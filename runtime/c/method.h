@@ -189,11 +189,13 @@ typedef struct dep_multipliers { /* scratch of the iteration and its Schur-compl
     long long schur_id, factorizations;
     int schur_nc, schur_explicit, schur_factored;
     int schur_envelope;        /* 1: S and L held in envelope form (a diagonal mass matrix) */
+    dep_arena *arena;          /* grows S and L (room doubles each) for a wider envelope */
+    size_t room;
     int *first, *offset;       /* capacity: row a of S spans columns first[a]..a, from offset[a] */
     dep_envelope envelope;     /* that form: first, offset, S and L */
     /* nq + 1, then per coordinate the rows touching it and their entries in J */
     int *column_start, *column_rows, *column_entries;
-    double *S, *L, *diag, *MinvJT, *column;
+    double *S, *L, *diag, *MinvJT, *column; /* MinvJT: G J^T by rows, for an explicit S */
     double *x, *r, *z, *d, *Sd, *inv_diag, *step, *trial_lam, *work;
 } dep_multipliers;
 

@@ -36,9 +36,11 @@ int dep_multipliers_init(dep_multipliers *mp, const dep_mass *mass,
     mp->capacity = capacity;
     mp->mass = mass;
     mp->schur_id = -1;
-    mp->S = dep_doubles(arena, nc * nc);
-    mp->L = dep_doubles(arena, nc * nc);
-    mp->MinvJT = dep_doubles(arena, nc * nq);
+    mp->arena = arena;
+    mp->room = (size_t)EXPLICIT_BELOW * EXPLICIT_BELOW; /* S and L; an envelope may grow them */
+    mp->S = dep_doubles(arena, mp->room);
+    mp->L = dep_doubles(arena, mp->room);
+    mp->MinvJT = dep_doubles(arena, (size_t)EXPLICIT_BELOW * nq);
     mp->first = dep_bytes(arena, nc * sizeof *mp->first);
     mp->offset = dep_bytes(arena, (nc + 1) * sizeof *mp->offset);
     mp->envelope = (dep_envelope){0, mp->first, mp->offset, mp->S, mp->L};
@@ -173,7 +175,7 @@ static int factor_schur(dep_multipliers *mp, int nc)
 
 /* Forms S from the non-zeros of J: the rows touching each coordinate, each row's envelope
    from the first row it shares a coordinate with, then S_ab += J_aj J_bj / M_jj. */
-static void envelope_schur(dep_multipliers *mp, const double *J, int nc)
+static int envelope_schur(dep_multipliers *mp, const double *J, int nc)
 {
     int nq = mp->nq, *start = mp->column_start, *rows = mp->column_rows, *first = mp->first;
     const int *row_start = mp->cs->row_start, *cols = mp->cs->row_cols;
@@ -208,6 +210,16 @@ static void envelope_schur(dep_multipliers *mp, const double *J, int nc)
     for (int a = 0; a < nc; ++a) {
         mp->offset[a + 1] = mp->offset[a] + a - first[a] + 1;
     }
+    if ((size_t)mp->offset[nc] > mp->room) { /* a wider envelope than any before: more room */
+        size_t room = 2 * (size_t)mp->offset[nc];
+        double *S = dep_doubles(mp->arena, room), *L = dep_doubles(mp->arena, room);
+        if (S == NULL || L == NULL) {
+            return 0;
+        }
+        mp->S = mp->envelope.A = S;
+        mp->L = mp->envelope.L = L;
+        mp->room = room;
+    }
     memset(mp->S, 0, (size_t)mp->offset[nc] * sizeof *mp->S);
     const double *inverse = mp->mass->inverse_diagonal;
     const int *entries = mp->column_entries;
@@ -222,6 +234,7 @@ static void envelope_schur(dep_multipliers *mp, const double *J, int nc)
     for (int a = 0; a < nc; ++a) {
         mp->diag[a] = ENVELOPE(mp, mp->S, a, a);
     }
+    return 1;
 }
 
 /* ---- S, its factor and its solves -------------------------------------------------------- */
@@ -236,36 +249,39 @@ static void schur_for(dep_multipliers *mp, const double *J, long long id, int nc
     mp->schur_nc = nc;
     mp->schur_mobility = mp->mobility_id;
     mp->schur_envelope = mp->mass->inverse_diagonal != NULL && mp->mobility == NULL;
-    if (mp->schur_envelope) {
-        envelope_schur(mp, J, nc);
+    if (mp->schur_envelope && envelope_schur(mp, J, nc)) {
         mp->schur_explicit = 1;
         mp->schur_factored = dep_envelope_factor(&mp->envelope);
         mp->factorizations += mp->schur_factored;
         return;
     }
+    mp->schur_envelope = 0; /* (out of memory for the envelope: conjugate gradients) */
     mp->schur_explicit = nc < EXPLICIT_BELOW;
     const int *row_start = mp->cs->row_start, *cols = mp->cs->row_cols;
-    for (int b = 0; b < nc; ++b) { /* row b of (G J^T)^T */
+    for (int b = 0; b < nc; ++b) { /* row b of (G J^T)^T; kept only to form S */
+        double *GJb = mp->schur_explicit ? mp->MinvJT + (size_t)b * (size_t)nq : mp->work;
         for (int k = row_start[b]; k < row_start[b + 1]; ++k) {
             mp->column[cols[k]] = J[k];
         }
-        dep_multipliers_apply(mp, mp->column, mp->MinvJT + (size_t)b * (size_t)nq);
+        dep_multipliers_apply(mp, mp->column, GJb);
         for (int k = row_start[b]; k < row_start[b + 1]; ++k) {
             mp->column[cols[k]] = 0.0;
         }
-    }
-    for (int a = 0; a < nc; ++a) {
-        for (int b = mp->schur_explicit ? 0 : a; b < (mp->schur_explicit ? nc : a + 1); ++b) {
-            const double *GJb = mp->MinvJT + (size_t)b * (size_t)nq;
-            double sum = 0.0;
+        for (int a = mp->schur_explicit ? 0 : b; a <= b; ++a) { /* S_ab and S_ba */
+            const double *GJa = mp->schur_explicit ? mp->MinvJT + (size_t)a * (size_t)nq : GJb;
+            double ab = 0.0, ba = 0.0;
             for (int k = row_start[a]; k < row_start[a + 1]; ++k) {
-                sum += J[k] * GJb[cols[k]];
+                ab += J[k] * GJb[cols[k]];
+            }
+            for (int k = row_start[b]; k < row_start[b + 1]; ++k) {
+                ba += J[k] * GJa[cols[k]];
             }
             if (mp->schur_explicit) {
-                mp->S[a * nc + b] = sum;
+                mp->S[a * nc + b] = ab;
+                mp->S[b * nc + a] = ba;
             }
             if (a == b) {
-                mp->diag[a] = sum;
+                mp->diag[a] = ab;
             }
         }
     }

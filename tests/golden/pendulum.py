@@ -62,18 +62,18 @@ def mass_matrix(p):
 
 def initial_state(p):
     """Initial pose and velocities placed along the assembly tree (q0, qd0)."""
+    q0 = numpy.zeros((3,))
+    qd0 = numpy.zeros((3,))
     x0 = p[6] - p[4]
     x1 = 0.5*p[0]
     x2 = x1*math.cos(x0)
-    x3 = x1*math.sin(x0)
-    s0 = -p[7]*x3
-    s1 = p[7]*x2
-    q0 = numpy.zeros((3,))
     q0[0] = x2
+    x3 = x1*math.sin(x0)
     q0[1] = x3
     q0[2] = x0
-    qd0 = numpy.zeros((3,))
+    s0 = -p[7]*x3
     qd0[0] = s0
+    s1 = p[7]*x2
     qd0[1] = s1
     qd0[2] = p[7]
     return q0, qd0
@@ -82,34 +82,34 @@ def initial_state(p):
 def tree_values(p):
     """The tree joints' initial values and rates (given, else 0)."""
     v0 = numpy.zeros((1,))
-    v0[0] = p[6]
     vd0 = numpy.zeros((1,))
+    v0[0] = p[6]
     vd0[0] = p[7]
     return v0, vd0
 
 
 def tree_pose(v, p):
     """The pose placed along the assembly tree with joint values v, shape (NQ,)."""
+    q = numpy.zeros((3,))
     x0 = p[4] - v[0]
     x1 = 0.5*p[0]
     s0 = x1*math.cos(x0)
-    s1 = -x1*math.sin(x0)
-    s2 = -x0
-    q = numpy.zeros((3,))
     q[0] = s0
+    s1 = -x1*math.sin(x0)
     q[1] = s1
+    s2 = -x0
     q[2] = s2
     return q
 
 
 def tree_tangent(v, vd, p):
     """d tree_pose / d v times the joint rates vd: the tree's velocities, shape (NQ,)."""
+    qd = numpy.zeros((3,))
     x0 = p[4] - v[0]
     x1 = 0.5*p[0]*vd[0]
     s0 = x1*math.sin(x0)
-    s1 = x1*math.cos(x0)
-    qd = numpy.zeros((3,))
     qd[0] = s0
+    s1 = x1*math.cos(x0)
     qd[1] = s1
     qd[2] = vd[0]
     return qd
@@ -118,16 +118,16 @@ def tree_tangent(v, vd, p):
 def loop_targets(p):
     """Given initial angle and rate of each hinge closing a loop (nan: not given)."""
     angle = numpy.zeros((1,))
-    angle[0] = math.nan
     rate = numpy.zeros((1,))
+    angle[0] = math.nan
     rate[0] = math.nan
     return angle, rate
 
 
 def phi(q, t, p):
     """Constraint residuals Phi(q, t), shape (NC,)."""
-    x0 = 0.5*p[0]
     phi = numpy.zeros((2,))
+    x0 = 0.5*p[0]
     phi[0] = -q[0] + x0*math.cos(q[2])
     phi[1] = -q[1] + x0*math.sin(q[2])
     return phi
@@ -135,9 +135,9 @@ def phi(q, t, p):
 
 def phi_q(q, t, p):
     """Values of Phi_q at (PHI_Q_ROWS, PHI_Q_COLS)."""
-    x0 = 0.5*p[0]
     phi_q = numpy.zeros((4,))
     phi_q[0] = -1
+    x0 = 0.5*p[0]
     phi_q[1] = -x0*math.sin(q[2])
     phi_q[2] = -1
     phi_q[3] = x0*math.cos(q[2])
@@ -152,8 +152,8 @@ def phi_t(q, t, p):
 
 def gamma(q, qd, t, p):
     """Right side of Phi_q qdd = gamma, shape (NC,)."""
-    x0 = 0.5*p[0]*qd[2]**2
     gamma = numpy.zeros((2,))
+    x0 = 0.5*p[0]*qd[2]**2
     gamma[0] = x0*math.cos(q[2])
     gamma[1] = x0*math.sin(q[2])
     return gamma
@@ -219,10 +219,10 @@ def outputs(q, qd, t, p):
 
 
 def _outputs(q, qd, t, p):
-    x0 = 0.5*p[0]
     y = numpy.zeros((4,))
     y[0] = p[4] + q[2]
     y[1] = qd[2]
+    x0 = 0.5*p[0]
     y[2] = q[0] + x0*numpy.cos(q[2])
     y[3] = q[1] + x0*numpy.sin(q[2])
     return y
@@ -230,8 +230,8 @@ def _outputs(q, qd, t, p):
 
 def energy(q, qd, t, p):
     """Kinetic energy and each potential (J), in the order of ENERGIES."""
-    x0 = (1/2)*p[1]
     E = numpy.zeros((2,))
+    x0 = (1/2)*p[1]
     E[0] = (1/24)*p[0]**2*p[1]*qd[2]**2 + qd[0]**2*x0 + qd[1]**2*x0
     E[1] = -p[1]*(p[2]*q[0] + p[3]*q[1])
     return E
