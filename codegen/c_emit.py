@@ -51,8 +51,9 @@ class CStatement:
 class CResult:
     name: str
     size: int
-    zero_fill: bool  # some entries are structurally zero: clear the array first (results
-    # are written completely, as NumPy's start from zeros)
+    fill: str  # "" or the value every entry gets first ("0.0": some are structurally zero,
+    # and results are written completely, as NumPy's start from zeros; "NAN": most are not
+    # given, as in hinge_properties), the entries holding it then left out
 
 
 @dataclass(frozen=True)
@@ -112,7 +113,9 @@ def c_function(f: FunctionView) -> CFunction:
         size = 1
         for extent in r.shape:
             size *= extent
-        results.append(CResult(r.name, size, len(r.entries) < size))
+        undefined = sum(e.value == "NAN" for e in r.entries)
+        fill = "0.0" if len(r.entries) < size else "NAN" if 2 * undefined > size else ""
+        results.append(CResult(r.name, size, fill))
         if size == 0:  # an empty result (no dissipators, no outputs): nothing to write
             unused.append(r.name)
     statements = tuple(
@@ -120,7 +123,8 @@ def c_function(f: FunctionView) -> CFunction:
         CStatement(f.results[s.result].name, str(s.entry.flat), s.entry.value,
                    "" if len(s.entry.index) == 1
                    else f"  /* [{s.entry.index[0]}][{s.entry.index[1]}] */")
-        for s in f.statements)
+        for s in f.statements
+        if s.result < 0 or not (results[s.result].fill == "NAN" and s.entry.value == "NAN"))
     declaration = interface.c_declaration(_INTERFACE[f.name])
     return CFunction(f.name, declaration, f.summary, tuple(unused), tuple(results), statements)
 
