@@ -3,6 +3,11 @@ compiling them and of a step, and how both grow with n (issue: a thousand bodies
 
     .venv/bin/python bench/bench_scaling.py                      # n = 10, 20, 40, 80
     .venv/bin/python bench/bench_scaling.py --sizes 10,30,100 --repeat 5
+    .venv/bin/python bench/bench_scaling.py --shape loop         # a closed loop
+
+Shapes: `chain`, an open chain from a pivot released 60 deg off the vertical (a tree); `loop`,
+the same bars hanging as a V from the pivot to a block that slides on a horizontal rail at the
+pivot's height, pinned to the last bar (one closed loop through every bar).
 
 Per size: compile = derive + emit + C build of the model (a fresh cache, so nothing is
 reused), time per step = the median over `--repeat` runs of the whole integration divided by
@@ -36,22 +41,47 @@ def chain_model(n: int) -> str:
     return "\n".join(lines) + "\n"
 
 
-def measure(n: int, folder: Path, repeat: int) -> tuple[float, float, int]:
+def loop_model(n: int) -> str:
+    """n bars (n even) hanging as a V from the ground to a block on a rail at y = 0."""
+    lines = chain_model(n).replace(f"model chain{n} \"hanging chain of {n} bars\"",
+                                   f"model loop{n} \"V of {n} bars on a rail\"").splitlines()
+    lines = [line for line in lines if not line.startswith("initial")]
+    lines += ["body block { mass = 0.1 kg; inertia = 1e-4 kg*m^2; point pin = (0, 0) m }",
+              "slider rail joins ground.origin to block.pin { axis = (1, 0) }",
+              f"hinge close joins b{n}.b to block.pin {{ damping = 0.001 N*m*s/rad }}",
+              f"initial {{ h1 = -60 deg; h{n // 2 + 1} = 120 deg }}"]
+    return "\n".join(lines) + "\n"
+
+
+SHAPES = {"chain": chain_model, "loop": loop_model}
+
+
+def measure(n: int, folder: Path, repeat: int, shape: str
+            ) -> tuple[float, float, float, int]:
+    """(compile, start, per step, steps): the start is a run to the first output time (the
+    setup, the assembly of closed loops, a few steps); per step, the rest of a whole run over
+    its remaining steps. Times are medians over `repeat` runs."""
     import depsim
 
-    path = folder / f"chain{n}.dep"
-    path.write_text(chain_model(n))
+    path = folder / f"{shape}{n}.dep"
+    path.write_text(SHAPES[shape](n))
     start = time.perf_counter()
     sim = depsim.load(path).compile(target="c")
     compiled = time.perf_counter() - start
+
+    def timed(**settings):
+        times, steps = [], 0
+        for _ in range(repeat):
+            begin = time.perf_counter()
+            result = sim.run(**settings)
+            times.append(time.perf_counter() - begin)
+            steps = result.stats.accepted_steps
+        return statistics.median(times), steps
+
     sim.run(t_end=0.01)  # warm
-    times, steps = [], 0
-    for _ in range(repeat):
-        start = time.perf_counter()
-        result = sim.run()
-        times.append(time.perf_counter() - start)
-        steps = result.stats.accepted_steps
-    return compiled, statistics.median(times) / steps, steps
+    first, first_steps = timed(t_end=0.01)
+    whole, steps = timed()
+    return compiled, first, (whole - first) / (steps - first_steps), steps
 
 
 def slope(sizes, values) -> float:
@@ -62,6 +92,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--sizes", default="10,20,40,80")
     parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--shape", choices=sorted(SHAPES), default="chain")
     args = parser.parse_args()
     sizes = [int(s) for s in args.sizes.split(",")]
     with tempfile.TemporaryDirectory() as scratch:
@@ -69,17 +100,22 @@ def main() -> None:
         from depsim.runtime.core import core
 
         core()  # the integrator core, built once before any timing
-        print(f"{'n':>6} {'compile (s)':>12} {'per step (us)':>14} {'steps':>7}")
+        print(f"{'n':>6} {'compile (s)':>12} {'start (s)':>10} {'per step (us)':>14} "
+              f"{'steps':>7}")
         rows = []
         for n in sizes:
-            compiled, per_step, steps = measure(n, Path(scratch), args.repeat)
-            rows.append((n, compiled, per_step, steps))
-            print(f"{n:>6} {compiled:>12.2f} {per_step * 1e6:>14.1f} {steps:>7}", flush=True)
+            compiled, first, per_step, steps = measure(n, Path(scratch), args.repeat, args.shape)
+            rows.append((n, compiled, per_step, steps, first))
+            print(f"{n:>6} {compiled:>12.2f} {first:>10.3f} {per_step * 1e6:>14.1f} {steps:>7}",
+                  flush=True)
     if len(rows) > 1:
         ns = [r[0] for r in rows]
         print(f"exponents: compile n^{slope(ns, [r[1] for r in rows]):.2f}, "
               f"per step n^{slope(ns, [r[2] for r in rows]):.2f}, "
               f"steps n^{slope(ns, [r[3] for r in rows]):.2f}")
+        large = [r for r in rows if r[0] >= 100]
+        if len(large) > 1:
+            print(f"per step from n = 100: n^{slope([r[0] for r in large], [r[2] for r in large]):.2f}")
 
 
 if __name__ == "__main__":

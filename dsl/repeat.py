@@ -26,6 +26,7 @@ from fractions import Fraction
 
 from .errors import LoopSpan, Reporter, at
 from .ir import FUNCTIONS, Span
+from .parse import MAX_NAME_LENGTH
 from .structural import NotFixed, Structural, exact, pick_index, structural_params, walk, whole
 from .syntax import (KEYWORDS, AttachmentRef, Block, CableStmt, ForLoop,
                      GravityStmt, GroundStmt, Ident, InitialStmt, InputStmt, JointStmt,
@@ -253,6 +254,10 @@ class _Expander:
                 self.report.error("E051", f"an index is a whole number from 0, got {k}",
                                   env.span(index.span))
             text += f"[{k}]"
+        if len(text) > MAX_NAME_LENGTH:
+            self.report.error("E008", f"the name '{text}' is {len(text)} characters long with "
+                              f"its indices; names have at most {MAX_NAME_LENGTH}",
+                              env.span(ident.span), hint="use a shorter name")
         return Ident(text, env.span(ident.span))
 
     def _expand_NameRef(self, ref: NameRef, env: _Env):
