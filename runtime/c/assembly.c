@@ -29,7 +29,8 @@ typedef struct assembly {
     const double *p;
     dep_constraints *cs;
     int nq, nv, nc, nh, nf, rows;   /* rows: nc + hinges with a loop target */
-    int *free, *target;             /* nf free joint indices; the hinges with a target */
+    int *free, *target, *live;      /* nf free joint indices; the hinges with a target; rows */
+    double *dual;                   /* nf + rows: normal_solve's D and y on the rows' side */
     double *v, *trial, *vd, *angles, *rates, *q, *unit, *column, *product, *J, *H, *A, *N, *F,
         *g, *step, *theta;
 } assembly;
@@ -83,31 +84,9 @@ static double residual(assembly *x, const double *v, int jacobian)
     return largest;
 }
 
-/* Solve (A^T A + damping diag(A^T A) + floor I) s = A^T b for s (nf) by Cholesky; the
-   regularised normal equations give the least-squares solution of minimum norm as the
-   damping and floor vanish. */
-static void normal_solve(assembly *x, const double *b, double damping, double *s)
+/* Solve the n x n system N s = rhs in place (N: lower Cholesky factor on return, rhs: s). */
+static void cholesky_solve(double *N, int n, double *s)
 {
-    int n = x->nf;
-    double *N = x->N, largest = 0.0;
-    for (int r = 0; r < n; ++r) {
-        for (int c = 0; c <= r; ++c) {
-            double sum = 0.0;
-            for (int i = 0; i < x->rows; ++i) {
-                sum += x->A[(size_t)i * n + r] * x->A[(size_t)i * n + c];
-            }
-            N[(size_t)r * n + c] = sum;
-        }
-        largest = fmax(largest, N[(size_t)r * n + r]);
-    }
-    for (int r = 0; r < n; ++r) {
-        double sum = 0.0;
-        for (int i = 0; i < x->rows; ++i) {
-            sum += x->A[(size_t)i * n + r] * b[i];
-        }
-        s[r] = sum;
-        N[(size_t)r * n + r] += damping * N[(size_t)r * n + r] + 1e-14 * fmax(largest, 1e-300);
-    }
     for (int c = 0; c < n; ++c) { /* Cholesky, lower triangle in place */
         double d = N[(size_t)c * n + c];
         for (int k = 0; k < c; ++k) {
@@ -135,6 +114,84 @@ static void normal_solve(assembly *x, const double *b, double damping, double *s
         }
         s[r] /= N[(size_t)r * n + r];
     }
+}
+
+/* Solve (A^T A + D) s = A^T b for s (nf), D = damping diag(A^T A) + floor I: the regularised
+   normal equations give the least-squares solution of minimum norm as the damping and floor
+   vanish. Only A's non-zero rows enter: a tree joint turns the members beyond it rigidly, so
+   its column is zero (to round-off) in every row but the loops' closing ones. With fewer such rows than
+   unknowns (a long chain closing one loop), the same s comes from the rows' side,
+   s = D^-1 A^T (A D^-1 A^T + I)^-1 b: a system of their size instead of nf. */
+static void normal_solve(assembly *x, const double *b, double damping, double *s)
+{
+    int n = x->nf, live = 0, *rows = x->live;
+    double *N = x->N, largest = 0.0, entry = 0.0;
+    for (size_t k = 0; k < (size_t)x->rows * (size_t)n; ++k) {
+        entry = fmax(entry, fabs(x->A[k]));
+    }
+    for (int i = 0; i < x->rows; ++i) { /* zero: to round-off of A's largest entry */
+        int nonzero = 0;
+        for (int c = 0; c < n && !nonzero; ++c) {
+            nonzero = fabs(x->A[(size_t)i * n + c]) > 1e-13 * entry;
+        }
+        if (nonzero) {
+            rows[live++] = i;
+        }
+    }
+    if (live < n) {
+        double *d = x->dual, *y = x->dual + n;
+        for (int c = 0; c < n; ++c) {
+            double sum = 0.0;
+            for (int k = 0; k < live; ++k) {
+                sum += x->A[(size_t)rows[k] * n + c] * x->A[(size_t)rows[k] * n + c];
+            }
+            d[c] = sum;
+            largest = fmax(largest, sum);
+        }
+        for (int c = 0; c < n; ++c) {
+            d[c] += damping * d[c] + 1e-14 * fmax(largest, 1e-300);
+        }
+        for (int a = 0; a < live; ++a) {
+            const double *Aa = x->A + (size_t)rows[a] * n;
+            for (int e = 0; e <= a; ++e) {
+                const double *Ae = x->A + (size_t)rows[e] * n;
+                double sum = a == e ? 1.0 : 0.0;
+                for (int c = 0; c < n; ++c) {
+                    sum += Aa[c] * Ae[c] / d[c];
+                }
+                N[(size_t)a * live + e] = sum;
+            }
+            y[a] = b[rows[a]];
+        }
+        cholesky_solve(N, live, y);
+        for (int c = 0; c < n; ++c) {
+            double sum = 0.0;
+            for (int a = 0; a < live; ++a) {
+                sum += x->A[(size_t)rows[a] * n + c] * y[a];
+            }
+            s[c] = sum / d[c];
+        }
+        return;
+    }
+    for (int r = 0; r < n; ++r) {
+        for (int c = 0; c <= r; ++c) {
+            double sum = 0.0;
+            for (int k = 0; k < live; ++k) {
+                sum += x->A[(size_t)rows[k] * n + r] * x->A[(size_t)rows[k] * n + c];
+            }
+            N[(size_t)r * n + c] = sum;
+        }
+        largest = fmax(largest, N[(size_t)r * n + r]);
+    }
+    for (int r = 0; r < n; ++r) {
+        double sum = 0.0;
+        for (int k = 0; k < live; ++k) {
+            sum += x->A[(size_t)rows[k] * n + r] * b[rows[k]];
+        }
+        s[r] = sum;
+        N[(size_t)r * n + r] += damping * N[(size_t)r * n + r] + 1e-14 * fmax(largest, 1e-300);
+    }
+    cholesky_solve(N, n, s);
 }
 
 /* "crank_pin = 1.5708 rad, wrist.rate = 0 rad/s, ..." : what the user gave (rates when
@@ -351,7 +408,7 @@ int dep_run_assemble(dep_run *run, double *q, double *qd)
     const dep_model *m = run->model;
     assembly x = {m, run->p, &run->cs, m->nq, m->nv, run->cs.nc, m->nh, 0, 0,
                   NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL,
-                  NULL, NULL, NULL, NULL, NULL, NULL};
+                  NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL};
     dep_arena *arena = &run->arena;
     size_t nv = (size_t)m->nv, nq = (size_t)m->nq, rows = (size_t)(x.nc + m->nh), nfree = 0;
     for (int k = 0; k < m->nv; ++k) {
@@ -359,6 +416,8 @@ int dep_run_assemble(dep_run *run, double *q, double *qd)
     }
     x.free = dep_bytes(arena, (nv + 1) * sizeof *x.free);
     x.target = dep_bytes(arena, ((size_t)m->nh + 1) * sizeof *x.target);
+    x.live = dep_bytes(arena, (rows + 1) * sizeof *x.live);
+    x.dual = dep_doubles(arena, nv + rows + 1);
     x.v = dep_doubles(arena, nv + 1);
     x.trial = dep_doubles(arena, nv + nq + 1);
     x.vd = dep_doubles(arena, nv + 1);
