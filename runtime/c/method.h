@@ -197,6 +197,10 @@ typedef struct dep_multipliers { /* scratch of the iteration and its Schur-compl
     int *column_start, *column_rows, *column_entries;
     double *S, *L, *diag, *MinvJT, *column; /* MinvJT: G J^T by rows, for an explicit S */
     double *x, *r, *z, *d, *Sd, *inv_diag, *step, *trial_lam, *work;
+    /* The envelope's row order: row a at position rank[a] (order: the inverse), reverse
+       Cuthill-McKee when it at least halves the envelope (permuted), else the rows' own. */
+    int *rank, *order, *degree, permuted;
+    double *permuted_in, *permuted_out;
 } dep_multipliers;
 
 int dep_multipliers_init(dep_multipliers *mp, const dep_mass *mass,

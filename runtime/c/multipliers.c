@@ -50,7 +50,11 @@ int dep_multipliers_init(dep_multipliers *mp, const dep_mass *mass,
     mp->column = dep_doubles(arena, nq);
     mp->work = dep_doubles(arena, nq);
     double **vectors[] = {&mp->diag, &mp->x, &mp->r, &mp->z, &mp->d, &mp->Sd, &mp->inv_diag,
-                          &mp->step, &mp->trial_lam};
+                          &mp->step, &mp->trial_lam, &mp->permuted_in, &mp->permuted_out};
+    int **orders[] = {&mp->rank, &mp->order, &mp->degree};
+    for (size_t i = 0; i < sizeof orders / sizeof *orders; ++i) {
+        *orders[i] = dep_bytes(arena, (nc + 1) * sizeof(int));
+    }
     for (size_t i = 0; i < sizeof vectors / sizeof *vectors; ++i) {
         *vectors[i] = dep_doubles(arena, nc);
     }
@@ -173,8 +177,85 @@ static int factor_schur(dep_multipliers *mp, int nc)
 /* S_ab of the envelope (b in first[a]..a). */
 #define ENVELOPE(mp, M, a, b) DEP_ENVELOPE_AT(&(mp)->envelope, M, a, b)
 
+/* The envelope's size (entries) with row a at position rank[a]: each position's row from the
+   first position it shares a coordinate with (into first). */
+static size_t envelope_size(dep_multipliers *mp, const int *rank, int nc)
+{
+    const int *start = mp->column_start, *rows = mp->column_rows;
+    int *first = mp->first;
+    size_t size = 0;
+    for (int a = 0; a < nc; ++a) {
+        first[a] = a;
+    }
+    for (int j = 0; j < mp->nq; ++j) {
+        int lowest = nc;
+        for (int k = start[j]; k < start[j + 1]; ++k) {
+            lowest = rank[rows[k]] < lowest ? rank[rows[k]] : lowest;
+        }
+        for (int k = start[j]; k < start[j + 1]; ++k) {
+            int r = rank[rows[k]];
+            first[r] = lowest < first[r] ? lowest : first[r];
+        }
+    }
+    for (int r = 0; r < nc; ++r) {
+        size += (size_t)(r - first[r] + 1);
+    }
+    return size;
+}
+
+/* Reverse Cuthill-McKee over the rows (two rows adjacent when they share a coordinate): the
+   rows in an order that keeps each near the rows it couples to, whatever order the model
+   declares its joints in (a comb declared spine first, then its teeth). Into mp->rank. */
+static void reverse_cuthill_mckee(dep_multipliers *mp, int nc)
+{
+    const int *start = mp->column_start, *rows = mp->column_rows;
+    const int *row_start = mp->cs->row_start, *cols = mp->cs->row_cols;
+    int *order = mp->order, *degree = mp->degree, *rank = mp->rank, placed = 0, next = 0;
+    for (int a = 0; a < nc; ++a) {
+        degree[a] = 0;
+        for (int k = row_start[a]; k < row_start[a + 1]; ++k) {
+            degree[a] += start[cols[k] + 1] - start[cols[k]];
+        }
+        rank[a] = -1;
+    }
+    while (placed < nc) {
+        while (rank[next] >= 0) { /* each component from its first row (a joint to the ground
+                                     comes first in a model, a root of the tree) */
+            ++next;
+        }
+        int seed = next;
+        rank[seed] = placed;
+        order[placed++] = seed;
+        for (int head = placed - 1; head < placed; ++head) { /* breadth first */
+            int a = order[head], from = placed;
+            for (int k = row_start[a]; k < row_start[a + 1]; ++k) {
+                for (int m = start[cols[k]]; m < start[cols[k] + 1]; ++m) {
+                    int b = rows[m];
+                    if (rank[b] >= 0) {
+                        continue;
+                    }
+                    int at = placed++; /* insert by degree among this row's new neighbours */
+                    while (at > from && degree[order[at - 1]] > degree[b]) {
+                        order[at] = order[at - 1];
+                        --at;
+                    }
+                    order[at] = b;
+                    rank[b] = 0;
+                }
+            }
+            for (int i = from; i < placed; ++i) {
+                rank[order[i]] = i;
+            }
+        }
+    }
+    for (int i = 0; i < nc; ++i) { /* reversed */
+        rank[order[i]] = nc - 1 - i;
+    }
+}
+
 /* Forms S from the non-zeros of J: the rows touching each coordinate, each row's envelope
-   from the first row it shares a coordinate with, then S_ab += J_aj J_bj / M_jj. */
+   from the first row it shares a coordinate with, then S_ab += J_aj J_bj / M_jj. The rows
+   keep their order unless reverse Cuthill-McKee halves the envelope (mp->permuted). */
 static int envelope_schur(dep_multipliers *mp, const double *J, int nc)
 {
     int nq = mp->nq, *start = mp->column_start, *rows = mp->column_rows, *first = mp->first;
@@ -199,11 +280,17 @@ static int envelope_schur(dep_multipliers *mp, const double *J, int nc)
         start[j] = start[j - 1];
     }
     start[0] = 0;
-    for (int j = 0; j < nq; ++j) {
-        for (int k = start[j]; k < start[j + 1]; ++k) {
-            int a = rows[k], lowest = rows[start[j]];
-            first[a] = lowest < first[a] ? lowest : first[a];
-        }
+    int *rank = mp->rank;
+    reverse_cuthill_mckee(mp, nc);
+    size_t reordered = envelope_size(mp, rank, nc);
+    for (int a = 0; a < nc; ++a) {
+        mp->order[a] = a;
+    }
+    mp->permuted = 2 * reordered < envelope_size(mp, mp->order, nc);
+    if (mp->permuted) {
+        envelope_size(mp, rank, nc);
+    } else {
+        memcpy(rank, mp->order, (size_t)nc * sizeof *rank);
     }
     mp->envelope.n = nc; /* S and its factor in mp->S and mp->L */
     mp->offset[0] = 0;
@@ -227,12 +314,13 @@ static int envelope_schur(dep_multipliers *mp, const double *J, int nc)
         for (int k = start[j]; k < start[j + 1]; ++k) {
             double weight = J[entries[k]] * inverse[j];
             for (int m = start[j]; m <= k; ++m) {
-                ENVELOPE(mp, mp->S, rows[k], rows[m]) += weight * J[entries[m]];
+                int a = rank[rows[k]], b = rank[rows[m]];
+                ENVELOPE(mp, mp->S, a > b ? a : b, a > b ? b : a) += weight * J[entries[m]];
             }
         }
     }
     for (int a = 0; a < nc; ++a) {
-        mp->diag[a] = ENVELOPE(mp, mp->S, a, a);
+        mp->diag[a] = ENVELOPE(mp, mp->S, rank[a], rank[a]);
     }
     return 1;
 }
@@ -297,7 +385,15 @@ static int solve_schur(dep_multipliers *mp, const double *J, int n, const double
                        long long *iterations)
 {
     if (mp->schur_factored) {
-        if (mp->schur_envelope) {
+        if (mp->schur_envelope && mp->permuted) {
+            for (int a = 0; a < n; ++a) {
+                mp->permuted_in[mp->rank[a]] = b[a];
+            }
+            dep_envelope_solve(&mp->envelope, mp->permuted_in, mp->permuted_in);
+            for (int a = 0; a < n; ++a) {
+                mp->x[a] = mp->permuted_in[mp->rank[a]];
+            }
+        } else if (mp->schur_envelope) {
             dep_envelope_solve(&mp->envelope, b, mp->x);
         } else {
             dep_cholesky_solve(mp->L, n, b, mp->x);
@@ -322,6 +418,16 @@ static void schur_apply(dep_multipliers *mp, const double *J, int nc, const doub
                         double *out)
 {
     int nq = mp->nq;
+    if (mp->schur_envelope && mp->permuted) {
+        for (int a = 0; a < nc; ++a) {
+            mp->permuted_in[mp->rank[a]] = x[a];
+        }
+        dep_envelope_times(&mp->envelope, mp->S, mp->permuted_in, mp->permuted_out);
+        for (int a = 0; a < nc; ++a) {
+            out[a] = mp->permuted_out[mp->rank[a]];
+        }
+        return;
+    }
     if (mp->schur_envelope) {
         dep_envelope_times(&mp->envelope, mp->S, x, out);
         return;
