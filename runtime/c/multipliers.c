@@ -267,9 +267,6 @@ static int envelope_schur(dep_multipliers *mp, const double *J, int nc)
     for (int j = 0; j < nq; ++j) {
         start[j + 1] += start[j];
     }
-    for (int a = 0; a < nc; ++a) {
-        first[a] = a;
-    }
     for (int a = 0; a < nc; ++a) { /* (row, entry) by coordinate, rows ascending */
         for (int k = row_start[a]; k < row_start[a + 1]; ++k) {
             mp->column_entries[start[cols[k]]] = k;
@@ -280,7 +277,7 @@ static int envelope_schur(dep_multipliers *mp, const double *J, int nc)
         start[j] = start[j - 1];
     }
     start[0] = 0;
-    int *rank = mp->rank;
+    int *rank = mp->rank; /* the row order, and first[] in it (envelope_size) */
     reverse_cuthill_mckee(mp, nc);
     size_t reordered = envelope_size(mp, rank, nc);
     for (int a = 0; a < nc; ++a) {
