@@ -122,11 +122,9 @@ def function_specs(system: SymbolicSystem) -> tuple[FunctionSpec, ...]:
     s = system
     q, qd = column(s.q), column(s.qd)
     placed = tuple(g for pair in zip(s.tree_pose, s.tree_tangent) for g in pair)
-    start = (tuple(zip(s.v, s.tree_v0)) + tuple(zip(s.vd, s.tree_vd0)),) if s.v else ()
-    steps = {"initial_state": start + placed, "tree_pose": s.tree_pose, "tree_tangent": placed}
+    steps = {"tree_pose": s.tree_pose, "tree_tangent": placed}
     matrices = {
         "mass_matrix": (column(s.mass_matrix[i, j] for i, j in s.mass_pattern),),
-        "initial_state": (q, qd),
         "tree_values": (s.tree_v0, s.tree_vd0), "tree_pose": (q,), "tree_tangent": (qd,),
         "loop_targets": (s.loop_angles, s.loop_rates), "phi": (s.phi,),
         "phi_q": (column(s.phi_q[i, j] for i, j in s.phi_q_pattern),), "phi_t": (s.phi_t,),
@@ -329,6 +327,8 @@ def lower_module(model: ir.Model, system: SymbolicSystem, printer: PrinterFactor
         "STIFFNESS_COLS": tuple(j for _, j in system.stiffness_pattern),
         "MASS_ROWS": tuple(i for i, _ in system.mass_pattern),
         "MASS_COLS": tuple(j for _, j in system.mass_pattern),
+        "FIXED_PARAMETERS": tuple(f.name for f in model.structural),
+        "FIXED_VALUES": tuple(f.value for f in model.structural),
     }
     tables = tuple(TableView(t.constant, t.field, t.ctype, values[t.constant])
                    for t in interface.TABLES)

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-ABI = 7  # DEP_MODEL_ABI: bumped whenever the dep_model struct changes
+ABI = 8  # DEP_MODEL_ABI: bumped whenever the dep_model struct changes
 
 ARGUMENTS = ("v", "vd", "q", "qd", "t", "p")  # every function takes a subsequence, in this order
 
@@ -87,6 +87,7 @@ SIZES = (
     Size("nhnz", "HINGE_JACOBIAN_ROWS", "structural non-zeros of hinge_jacobian"),
     Size("nkz", "STIFFNESS_ROWS", "structural non-zeros of the stiffness (0: no beams)"),
     Size("nmz", "MASS_ROWS", "structural non-zeros of the mass matrix"),
+    Size("nfix", "FIXED_PARAMETERS", "structural parameters (loop bounds, indices): fixed"),
 )
 
 TABLES = (
@@ -124,6 +125,9 @@ TABLES = (
     Table("mass_rows", "MASS_ROWS", "const int", "nmz",
           "row-major sorted: where the mass matrix is non-zero (its diagonal for rigid bodies)"),
     Table("mass_cols", "MASS_COLS", "const int", "nmz", ""),
+    Table("fixed_names", "FIXED_PARAMETERS", "const char *const", "nfix",
+          "structural parameters: fixed in the model text, not in p"),
+    Table("fixed_values", "FIXED_VALUES", "const int", "nfix", "their values"),
 )
 
 SETTINGS = (("t_end", "T_END"), ("tol", "TOL"), ("dt_out", "DT_OUT"))
@@ -131,8 +135,6 @@ SETTINGS = (("t_end", "T_END"), ("tol", "TOL"), ("dt_out", "DT_OUT"))
 FUNCTIONS = (
     Function("mass_matrix", ("p",), (Output("M", ("nmz",)),),
              "Values of the constant mass matrix M at (MASS_ROWS, MASS_COLS)."),
-    Function("initial_state", ("p",), (Output("q0", ("nq",)), Output("qd0", ("nq",))),
-             "Initial pose and velocities placed along the assembly tree (q0, qd0)."),
     Function("tree_values", ("p",), (Output("v0", ("nv",)), Output("vd0", ("nv",))),
              "The tree joints' initial values and rates (given, else 0)."),
     Function("tree_pose", ("v", "p"), (Output("q", ("nq",)),),
@@ -196,6 +198,15 @@ def dense(module, function: str, *args) -> np.ndarray:
     matrix[list(getattr(module, rows)), list(getattr(module, cols))] = getattr(module, function)(
         *args)
     return matrix
+
+
+def initial_state(module, p) -> tuple[np.ndarray, np.ndarray]:
+    """The pose and velocities placed along the assembly tree at the joints' initial values
+    and rates, (q0, qd0): tree_pose and tree_tangent at tree_values(p), as the runtime starts
+    (its assembly then closes any loop the given values leave open)."""
+    v0, vd0 = (np.asarray(a, dtype=float) for a in module.tree_values(p))
+    return (np.asarray(module.tree_pose(v0, p), dtype=float),
+            np.asarray(module.tree_tangent(v0, vd0, p), dtype=float))
 
 
 def check_module(module) -> None:

@@ -438,11 +438,12 @@ int dep_run_assemble(dep_run *run, double *q, double *qd)
     if (arena->failed) {
         return dep_plain_error(run->error, DEP_MEMORY_ERROR, "out of memory");
     }
-    m->initial_state(run->p, q, qd);
-    if (m->nv == 0 || m->tree_pose == NULL) {
+    m->tree_values(run->p, x.v, x.vd);
+    m->tree_pose(x.v, run->p, q);
+    m->tree_tangent(x.v, x.vd, run->p, qd);
+    if (m->nv == 0) {
         return DEP_OK;
     }
-    m->tree_values(run->p, x.v, x.vd);
     m->loop_targets(run->p, x.angles, x.rates);
     for (int h = 0; h < m->nh; ++h) {
         if (isfinite(x.angles[h])) {

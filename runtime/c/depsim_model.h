@@ -11,7 +11,7 @@
 #ifndef DEPSIM_MODEL_H
 #define DEPSIM_MODEL_H
 
-#define DEP_MODEL_ABI 7 /* bumped whenever this struct changes */
+#define DEP_MODEL_ABI 8 /* bumped whenever this struct changes */
 
 typedef struct dep_model {
     int abi; /* DEP_MODEL_ABI of the header the model was compiled with */
@@ -39,6 +39,7 @@ typedef struct dep_model {
     int nhnz; /* structural non-zeros of hinge_jacobian */
     int nkz; /* structural non-zeros of the stiffness (0: no beams) */
     int nmz; /* structural non-zeros of the mass matrix */
+    int nfix; /* structural parameters (loop bounds, indices): fixed */
 
     /* tables (NULL when empty) */
     const char *const *coordinate_names; /* nq */
@@ -67,6 +68,8 @@ typedef struct dep_model {
     const int *stiffness_cols; /* nkz */
     const int *mass_rows; /* nmz, row-major sorted: where the mass matrix is non-zero (its diagonal for rigid bodies) */
     const int *mass_cols; /* nmz */
+    const char *const *fixed_names; /* nfix, structural parameters: fixed in the model text, not in p */
+    const int *fixed_values; /* nfix, their values */
 
     /* the model's simulation settings */
     double t_end, tol, dt_out;
@@ -74,8 +77,6 @@ typedef struct dep_model {
     /* functions (docs/generated-module.md) */
     /* Values of the constant mass matrix M at (MASS_ROWS, MASS_COLS). */
     void (*mass_matrix)(const double *p, double *M);
-    /* Initial pose and velocities placed along the assembly tree (q0, qd0). */
-    void (*initial_state)(const double *p, double *q0, double *qd0);
     /* The tree joints' initial values and rates (given, else 0). */
     void (*tree_values)(const double *p, double *v0, double *vd0);
     /* The pose placed along the assembly tree with joint values v, shape (NQ,). */

@@ -67,6 +67,10 @@ static void print_parameters(void)
         printf("%-28s %-14s %.17g\n", depsim_model.parameter_names[i],
                depsim_model.parameter_units[i], depsim_model.parameter_defaults[i]);
     }
+    for (int i = 0; i < depsim_model.nfix; ++i) {
+        printf("%-28s %-14s %d (structural: fixed in the model text)\n",
+               depsim_model.fixed_names[i], "-", depsim_model.fixed_values[i]);
+    }
 }
 
 /* A whole-string finite number; 0 when `text` is not one. */
@@ -134,6 +138,16 @@ static int set_parameter(const char *item, double *p)
     memcpy(name, item, (size_t)(equals - item));
     name[equals - item] = '\0';
     int index = dep_parameter_index(&depsim_model, name);
+    for (int i = 0; index < 0 && i < depsim_model.nfix; ++i) {
+        if (strcmp(name, depsim_model.fixed_names[i]) == 0) {
+            int value = depsim_model.fixed_values[i];
+            fprintf(stderr, "%s: error: '%s' is a structural parameter (a loop bound or an "
+                    "index, %s = %d): it was fixed when the model was compiled, not a run-time "
+                    "parameter; to change it, edit `param %s = %d` in %s and compile again\n",
+                    program, name, name, value, name, value, depsim_model.source_file);
+            return EXIT_USAGE;
+        }
+    }
     if (index < 0) {
         const char *close = closest_parameter(name);
         if (close != NULL) {

@@ -186,11 +186,6 @@ static void put(text *out, const char *format, ...)
     out->length += (size_t)needed;
 }
 
-static int by_name(const void *a, const void *b)
-{
-    return strcmp(*(const char *const *)a, *(const char *const *)b);
-}
-
 static void deployment_lines(const dep_model *m, const dep_result *r, text *out)
 {
     const dep_deployment *d = &r->deployment;
@@ -216,7 +211,6 @@ static void deployment_lines(const dep_model *m, const dep_result *r, text *out)
                 missing[n_missing++] = m->hinge_names[d->latch_hinges[i]];
             }
         }
-        qsort(missing, (size_t)n_missing, sizeof *missing, by_name);
         put(out, "  NOT DEPLOYED by t = %.6g s: %d of %d latches open (", r->t_end, n_missing,
             d->n_latch_hinges);
         for (int i = 0; i < n_missing; ++i) {

@@ -52,7 +52,14 @@ static int start(parts *x, double tol)
         || dep_outcome_init(&x->outcome, m->nq, x->cs.capacity, x->system.nd, &x->arena)) {
         return fail("setup");
     }
-    m->initial_state(m->parameter_defaults, x->state.q, x->state.qd);
+    double *v = dep_doubles(&x->arena, (size_t)m->nv + 1);
+    double *vd = dep_doubles(&x->arena, (size_t)m->nv + 1);
+    if (x->arena.failed) {
+        return fail("setup");
+    }
+    m->tree_values(m->parameter_defaults, v, vd);
+    m->tree_pose(v, m->parameter_defaults, x->state.q);
+    m->tree_tangent(v, vd, m->parameter_defaults, x->state.qd);
     dep_cs_jacobian(&x->cs, x->state.q, 0.0, x->stepper.restart_J);
     if (dep_acceleration(&x->stepper, x->state.q, x->state.qd, 0.0, x->state.lam,
                          x->stepper.restart_J, 1, x->state.qdd, &report, &failure) != DEP_OK) {

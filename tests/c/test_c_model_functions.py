@@ -12,6 +12,7 @@ import pytest
 
 from depsim.runtime.core import compiler
 from depsim.runtime.interface import FUNCTION_NAMES
+from depsim.runtime.interface import initial_state
 
 STRICT = ("-std=c99", "-Wall", "-Wextra", "-Wpedantic", "-Werror")
 CONSTANTS = ("MODEL_NAME", "DESCRIPTION", "SOURCE_FILE", "SOURCE_SHA256", "DEPSIM_VERSION",
@@ -27,7 +28,7 @@ def random_states(module, count=4, seed=11):
     rng = np.random.default_rng(seed)
     for _ in range(count):
         p = np.array(module.PARAMETER_DEFAULTS) * rng.uniform(0.9, 1.1, module.NP)
-        q0, _ = module.initial_state(p)
+        q0, _ = initial_state(module, p)
         q = q0 + 0.05 * rng.standard_normal(module.NQ)
         v = module.tree_values(p)[0] + 0.1 * rng.standard_normal(len(module.TREE_JOINTS))
         vd = rng.standard_normal(len(module.TREE_JOINTS))

@@ -6,6 +6,7 @@ from dataclasses import dataclass
 from types import ModuleType
 
 import numpy as np
+from depsim.runtime.interface import initial_state
 
 
 @dataclass(frozen=True)
@@ -22,7 +23,7 @@ def random_states(module: ModuleType, count: int = 3, seed: int = 7) -> list[Sta
     states = []
     for _ in range(count):
         p = np.array(module.PARAMETER_DEFAULTS) * rng.uniform(0.9, 1.1, module.NP)
-        q0, _ = module.initial_state(p)
+        q0, _ = initial_state(module, p)
         q = q0 + 0.05 * rng.standard_normal(module.NQ)
         states.append(State(q, rng.standard_normal(module.NQ), float(rng.uniform(0, 2)), p))
     return states

@@ -23,6 +23,7 @@ from depsim.codegen import compile_numpy, load_generated
 from depsim.dsl import load_model
 from depsim.runtime import simulate
 from depsim.runtime.interface import dense
+from depsim.runtime.interface import initial_state
 
 G = 9.81  # m/s^2
 CANTILEVER_ROOTS = (1.8751040687119611, 4.6940911329741746)  # cos b cosh b = -1
@@ -140,7 +141,7 @@ def test_static_equilibrium_of_the_generated_forces_at_eight_elements(tmp_path):
     reaction carries the weight."""
     module = compile_text(tmp_path, SPRING_CLAMPED.format(n=8, **STATIC), "spring_clamped8")
     p = defaults(module)
-    q0, _ = module.initial_state(p)
+    q0, _ = initial_state(module, p)
     nq, zero = module.NQ, np.zeros(module.NQ)
 
     def residual(z):
@@ -172,7 +173,7 @@ def test_stiffness_is_the_force_jacobian_where_the_strains_vanish(tmp_path):
     qd). In a deformed pose K stays symmetric positive semi-definite."""
     module = compile_text(tmp_path, SPRING_CLAMPED.format(n=3, **STATIC), "spring_stiffness")
     p = defaults(module)
-    q0, _ = module.initial_state(p)
+    q0, _ = initial_state(module, p)
     nq = module.NQ
     K, D = (np.zeros((nq, nq)) for _ in range(2))
     values = module.stiffness(q0, p)
@@ -202,7 +203,7 @@ def test_linearised_generated_cantilever_has_beam_theory_frequencies(tmp_path):
     module = compile_text(tmp_path, SLIDER_CLAMPED.format(n=8, t_end=1, **VIBRATION),
                           "slider_clamped8")
     p = defaults(module)
-    q0, _ = module.initial_state(p)
+    q0, _ = initial_state(module, p)
     null = linalg.null_space(constraint_jacobian(module, q0, p))
     K, M = stiffness(module, q0, p), dense(module, "mass_matrix", p)
     squares = linalg.eigh(null.T @ K @ null, null.T @ M @ null, eigvals_only=True)

@@ -9,7 +9,7 @@ What is checked and where the numbers come from:
   (this implementation at tol 1e-8: 19.0 deg and 1.9 deg), and every latch engages within
   1.5 s of the first (0.69 s);
 * --set reaches names made by repetition, and the structural N is refused with a message
-  naming the model text.
+  naming the model text, by `depsim run` and by the compiled standalone program.
 """
 
 import csv
@@ -96,6 +96,34 @@ def test_set_reaches_indexed_names_and_refuses_the_structural_n(deployed):
         assert study.returncode == 2, study.stderr
         assert "'N' is a structural parameter" in study.stderr
         assert "Traceback" not in study.stderr and not (cache / "study.nc").exists()
+
+
+def test_an_unfinished_deployment_lists_open_latches_in_model_order(deployed):
+    _, _, _, cache = deployed
+    early = _run(cache, "run", MODEL, "--target", "c", "--t-end", "0.2")
+    assert early.returncode == 0, early.stderr
+    expected = ", ".join(["root"] + [f"h[{i}]" for i in range(1, 13)])
+    assert f"13 of 13 latches open ({expected})" in early.stdout
+
+
+def test_the_standalone_program_refuses_the_structural_n(deployed, tmp_path):
+    """The compiled program knows N is fixed in its code: `--set N=20` says so (exit 2,
+    naming the model text), and `--list` shows N with its value."""
+    _, _, _, cache = deployed
+    folder = tmp_path / "c"
+    compiled = _run(cache, "compile", MODEL, "--target", "c", "-o", folder)
+    assert compiled.returncode == 0, compiled.stderr
+    made = subprocess.run(["make", "-C", str(folder)], capture_output=True, text=True)
+    assert made.returncode == 0, made.stdout + made.stderr
+    program = folder / "accordion"
+    refused = subprocess.run([str(program), "--set", "N=20"], capture_output=True, text=True)
+    assert refused.returncode == 2
+    assert "'N' is a structural parameter" in refused.stderr
+    assert "param N = 12" in refused.stderr and "accordion.dep" in refused.stderr
+    listed = subprocess.run([str(program), "--list"], capture_output=True, text=True)
+    assert listed.returncode == 0
+    assert any(line.split()[:2] == ["N", "-"] and " 12 " in line
+               for line in listed.stdout.splitlines())
 
 
 def test_check_lists_n_as_structural():

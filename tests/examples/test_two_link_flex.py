@@ -18,6 +18,7 @@ import pytest
 import depsim
 from depsim.codegen import load_generated
 from depsim.dsl import evaluate, ir
+from depsim.runtime.interface import initial_state
 from e2e import EXAMPLES
 
 MODEL = EXAMPLES / "two_link_flex.dep"
@@ -105,7 +106,7 @@ def test_initial_state_and_outputs_follow_the_m2_conventions(m2):
     """Link 1 hangs straight down, link 2 is straight at 5 deg from -y (counter-clockwise, tip
     at x > 0), undeformed and at rest; chord2 and tip2 are the docs/examples.md definitions."""
     module, p = m2.module, m2.defaults
-    q0, qd0 = (np.asarray(a, dtype=float) for a in module.initial_state(p))
+    q0, qd0 = (np.asarray(a, dtype=float) for a in initial_state(module, p))
     index = {name: k for k, name in enumerate(module.COORDINATES)}
 
     def node(q, beam, k):

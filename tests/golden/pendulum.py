@@ -45,6 +45,8 @@ STIFFNESS_ROWS = ()
 STIFFNESS_COLS = ()
 MASS_ROWS = (0, 1, 2)
 MASS_COLS = (0, 1, 2)
+FIXED_PARAMETERS = ()
+FIXED_VALUES = ()
 
 T_END = 10.0
 TOL = 1e-09
@@ -58,25 +60,6 @@ def mass_matrix(p):
     M[1] = p[1]
     M[2] = (1/12)*p[0]**2*p[1]
     return M
-
-
-def initial_state(p):
-    """Initial pose and velocities placed along the assembly tree (q0, qd0)."""
-    q0 = numpy.zeros((3,))
-    qd0 = numpy.zeros((3,))
-    x0 = p[6] - p[4]
-    x1 = 0.5*p[0]
-    x2 = x1*math.cos(x0)
-    q0[0] = x2
-    x3 = x1*math.sin(x0)
-    q0[1] = x3
-    q0[2] = x0
-    s0 = -p[7]*x3
-    qd0[0] = s0
-    s1 = p[7]*x2
-    qd0[1] = s1
-    qd0[2] = p[7]
-    return q0, qd0
 
 
 def tree_values(p):

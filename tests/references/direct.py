@@ -22,6 +22,7 @@ from scipy.integrate import solve_ivp
 
 from depsim.runtime import ConstraintSet, EventHit, EventResponse
 from depsim.runtime.interface import dense
+from depsim.runtime.interface import initial_state
 
 BAUMGARTE = 10.0  # 1/s
 MUTE = 1e-9  # s: a fired event is not re-detected this soon after its crossing
@@ -114,7 +115,7 @@ def solve_direct(module, params=None, t_end=None, dt_out=None, tol=None, events=
     t_end = float(module.T_END if t_end is None else t_end)
     times = output_times(t_end, float(module.DT_OUT if dt_out is None else dt_out))
     nq, events = int(module.NQ), tuple(events)
-    q, qd = (np.array(v, dtype=float) for v in module.initial_state(solver.p))
+    q, qd = (np.array(v, dtype=float) for v in initial_state(module, solver.p))
     rows, found, hits, steps = [], [], [0] * len(events), 0
     t, y, muted = 0.0, np.concatenate((q, qd)), (None, 0.0, 0.0)
 

@@ -10,6 +10,7 @@ from runtime_helpers import load_handmade, variant
 
 from depsim.runtime import simulate
 from depsim.runtime.animation import Geometry, animate
+from depsim.runtime.interface import initial_state
 
 J_O = 0.25 + 3 * 0.5 ** 2  # the 1 m, 3 kg bar about its end, kg m^2
 
@@ -136,7 +137,7 @@ def test_summary_report_and_switch(build):
 def test_geometry_reconstructs_bar_ends_and_hinges(build):
     module = build(TWO_BARS)
     p = np.array(module.PARAMETER_DEFAULTS)
-    q, _ = module.initial_state(p)
+    q, _ = initial_state(module, p)
     members, hinges = Geometry(module, p).shapes(q)
     e1 = np.array([np.cos(np.radians(30)), np.sin(np.radians(30))])
     assert np.allclose(hinges, [[0.0, 0.0], e1], atol=1e-12)

@@ -59,6 +59,7 @@ INPUT_SLOTS = ()
 STIFFNESS_ROWS = ()  # no stiff forces: the explicit step throughout
 STIFFNESS_COLS = ()
 MASS_ROWS = MASS_COLS = (0, 1, 2)  # diagonal
+FIXED_PARAMETERS = FIXED_VALUES = ()  # no structural parameters
 
 
 def tree_values(p):

@@ -76,6 +76,7 @@ INPUT_SLOTS = ()
 STIFFNESS_ROWS = ()  # no stiff forces: the explicit step throughout
 STIFFNESS_COLS = ()
 MASS_ROWS = MASS_COLS = tuple(range(9))  # diagonal
+FIXED_PARAMETERS = FIXED_VALUES = ()  # no structural parameters
 
 
 def tree_values(p):
