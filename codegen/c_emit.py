@@ -4,6 +4,7 @@
 C compiler and libm only (docs/c-target.md):
 
     model.c, model.h       the generated functions and the `depsim_model` description
+    model_<name>.c         a long function of a large model, in a file of its own
     *.c, *.h from runtime/c  the integrator (copied unchanged; never generated per model)
     Makefile               builds the program `<name>` and the library `lib<name>.so`
 
@@ -32,6 +33,11 @@ C_ENVIRONMENT = ENVIRONMENT.overlay()
 C_ENVIRONMENT.filters.update(c_string=c_string, c_comment=c_comment, c_double=c_double)
 
 GENERATED_FILES = ("model.c", "model.h", "Makefile")
+# A function whose body is longer than this many characters goes into a file of its own,
+# model_<name>.c: a C compiler's optimisation passes take time growing faster than a function's
+# length, and separate files compile in parallel (`make -j`, and depsim's own builds). Small
+# models keep everything in model.c.
+OWN_FILE_CHARS = 200_000
 _INTERFACE = {f.name: f for f in interface.FUNCTIONS}
 PROGRAM_SOURCE = "main.c"  # the program's entry point, left out of the library
 
@@ -65,6 +71,21 @@ class CFunction:
     results: tuple[CResult, ...]
     statements: tuple[CStatement, ...]
 
+    @property
+    def length(self) -> int:
+        """Characters of its body's statements."""
+        return sum(len(s.name) + len(s.value) for s in self.statements)
+
+
+@dataclass(frozen=True)
+class CFile:
+    """One generated .c file: its name and functions; `main`: it holds the tables and the
+    `depsim_model` struct (model.c)."""
+
+    name: str
+    functions: tuple[CFunction, ...]
+    main: bool
+
 
 @dataclass(frozen=True)
 class CTable:
@@ -87,7 +108,8 @@ class CModuleView:
     sizes: tuple[tuple[str, int], ...]  # (dep_model field, value)
     tables: tuple[CTable, ...]
     functions: tuple[CFunction, ...]
-    library_sources: tuple[str, ...]  # .c files of the library (model.c and the integrator)
+    files: tuple[CFile, ...]  # model.c, then model_<name>.c for each long function
+    library_sources: tuple[str, ...]  # .c files of the library (model*.c and the integrator)
     headers: tuple[str, ...]
 
 
@@ -141,16 +163,20 @@ def c_view(view: ModuleView, runtime_files: tuple[str, ...]) -> CModuleView:
     """The C target's view-model of a lowered module; `runtime_files`: names in runtime/c."""
     m = view
     sizes = tuple((field, value) for field, _, value in m.sizes)
-    sources = ("model.c",) + tuple(sorted(f for f in runtime_files
-                                          if f.endswith(".c") and f != PROGRAM_SOURCE))
+    functions = tuple(c_function(f) for f in m.functions)
+    long = tuple(f for f in functions if f.length > OWN_FILE_CHARS)
+    files = (CFile("model.c", tuple(f for f in functions if f not in long), True),) + tuple(
+        CFile(f"model_{f.name}.c", (f,), False) for f in long)
+    sources = tuple(f.name for f in files) + tuple(sorted(
+        f for f in runtime_files if f.endswith(".c") and f != PROGRAM_SOURCE))
     headers = ("model.h",) + tuple(sorted(f for f in runtime_files if f.endswith(".h")))
-    return CModuleView(m, c_file_stem(m.model_name), sizes, _tables(m),
-                       tuple(c_function(f) for f in m.functions), sources, headers)
+    return CModuleView(m, c_file_stem(m.model_name), sizes, _tables(m), functions, files,
+                       sources, headers)
 
 
 def c_sources(model: ir.Model, system: SymbolicSystem | None = None) -> dict[str, str]:
-    """The generated files of the C target (model.c, model.h, Makefile) as text; no file
-    written. The integrator's sources (runtime/c) are not included."""
+    """The generated files of the C target (model.c, any model_<name>.c, model.h, Makefile)
+    as text; no file written. The integrator's sources (runtime/c) are not included."""
     return c_target(model, system)[1]
 
 
@@ -164,8 +190,11 @@ def c_target(model: ir.Model, system: SymbolicSystem | None = None
     runtime = tuple(sorted(path.name for path in runtime_c_dir().iterdir()
                            if path.suffix in (".c", ".h")))
     c = c_view(view, runtime)
-    return view, {name: C_ENVIRONMENT.get_template(f"c/{name}.j2").render(c=c, m=view)
-                  for name in GENERATED_FILES}
+    files = {name: C_ENVIRONMENT.get_template(f"c/{name}.j2").render(c=c, m=view)
+             for name in GENERATED_FILES if name != "model.c"}
+    template = C_ENVIRONMENT.get_template("c/model.c.j2")
+    files.update({f.name: template.render(c=c, m=view, file=f) for f in c.files})
+    return view, files
 
 
 def compile_c(model: ir.Model, out_dir: Path, system: SymbolicSystem | None = None) -> Path:

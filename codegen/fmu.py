@@ -4,7 +4,7 @@
 
     modelDescription.xml               generated (templates/fmu/modelDescription.xml.j2)
     binaries/linux64/<identifier>.so   built here with the system C compiler
-    sources/                           model.c, model.h (the C target's), the FMI wrapper
+    sources/                           model*.c, model.h (the C target's), the FMI wrapper
                                        fmi2.c, fmi2.h and the integrator core (runtime/c)
 
 The variables of the FMU are one list (`fmu_view`) from which both the XML and the wrapper's
@@ -14,13 +14,10 @@ instance and advances it in `fmi2DoStep`. No Python is inside the FMU."""
 from __future__ import annotations
 
 import hashlib
-import os
 import re
-import subprocess
 import tempfile
 import uuid
 import zipfile
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -295,7 +292,8 @@ def fmu_sources(model: ir.Model, system: SymbolicSystem | None = None
     core = {path.name: path.read_text(encoding="utf-8")
             for path in sorted(runtime_c_dir().iterdir())
             if path.suffix in (".c", ".h") and path.name != PROGRAM_SOURCE}
-    sources = {"model.c": generated["model.c"], "model.h": generated["model.h"], **core}
+    sources = {name: text for name, text in generated.items() if name.startswith("model")}
+    sources.update(core)
     c_files = tuple(sorted([name for name in sources if name.endswith(".c")] + ["fmi2.c"]))
     view = fmu_view(model, m, c_files)
     for name in WRAPPER_FILES:
@@ -329,32 +327,18 @@ def compile_fmu(model: ir.Model, path: str | Path, system: SymbolicSystem | None
 def _build(view: FmuView, files: dict[str, str], folder: Path, flags: tuple[str, ...]) -> bytes:
     """Compile the sources into the FMU's shared object (one compiler per source, in
     parallel, then one link); its bytes."""
-    from depsim.runtime.core import compiler
+    from depsim.runtime.core import compiler, run_compilers
 
     for name, text in files.items():
         if name != "modelDescription.xml":
             (folder / name).write_text(text, encoding="utf-8", newline="\n")
     cc = compiler()
     objects = [f"{Path(source).stem}.o" for source in view.source_files]
-    commands = [[*cc, *flags, "-c", "-o", obj, source]
-                for source, obj in zip(view.source_files, objects)]
-    with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:
-        list(pool.map(lambda command: _compile(command, folder, cc), commands))
+    run_compilers([[*cc, *flags, "-c", "-o", obj, source]
+                   for source, obj in zip(view.source_files, objects)], "the FMU's binary", folder)
     target = f"{view.identifier}.so"
-    _compile([*cc, *flags, "-o", target, *objects, "-lm"], folder, cc)
+    run_compilers([[*cc, *flags, "-o", target, *objects, "-lm"]], "the FMU's binary", folder)
     return (folder / target).read_bytes()
-
-
-def _compile(command: list[str], folder: Path, cc: tuple[str, ...]) -> None:
-    from depsim.runtime.core import CBuildError
-
-    try:
-        run = subprocess.run(command, cwd=folder, capture_output=True, text=True)
-    except OSError as exc:
-        raise CBuildError(f"the C compiler '{' '.join(cc)}' does not run: {exc}") from None
-    if run.returncode != 0:
-        raise CBuildError(f"building the FMU's binary failed:\n$ {' '.join(command)}\n"
-                          f"{run.stdout}{run.stderr}".rstrip())
 
 
 def _write_archive(path: str, view: FmuView, files: dict[str, str], binary: bytes) -> None:

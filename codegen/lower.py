@@ -191,22 +191,30 @@ def lower_function(system: SymbolicSystem, spec: FunctionSpec,
 
 def _demand_order(definitions, reduced) -> list[list[sympy.Symbol]]:
     """For each result expression, the temporaries to evaluate just before it (those it needs,
-    directly or not, that no earlier result needed), dependencies first. Definitions are in
-    dependency order, so each temporary's own needs come earlier in that order."""
+    directly or not, that no earlier result needed), each just before its first use: depth
+    first, a temporary's needs before it, the latest defined of them first. So a running sum
+    (a chain of partial sums, each needing the one before) is evaluated chunk after chunk,
+    each chunk just after its own few terms, not after every term of the sum."""
     position = {name: k for k, (name, _) in enumerate(definitions)}
-    values = dict(definitions)
+    needs = {name: sorted((s for s in value.free_symbols if s in position), key=position.get)
+             for name, value in definitions}
     done: set[sympy.Symbol] = set()
     order = []
     for value in reduced:
-        needed, stack = set(), [s for s in value.free_symbols if s in position]
-        while stack:  # iterative: a placement chain is thousands deep
-            name = stack.pop()
-            if name in done or name in needed:
+        needed: list[sympy.Symbol] = []
+        roots = sorted((s for s in value.free_symbols if s in position), key=position.get)
+        stack = [(name, False) for name in roots]
+        while stack:  # iterative post-order: a placement chain is thousands deep
+            name, expanded = stack.pop()
+            if name in done:
                 continue
-            needed.add(name)
-            stack += [s for s in values[name].free_symbols if s in position]
-        done |= needed
-        order.append(sorted(needed, key=position.get))
+            if expanded:
+                done.add(name)
+                needed.append(name)
+                continue
+            stack.append((name, True))
+            stack += [(s, False) for s in needs[name] if s not in done]
+        order.append(needed)
     return order
 
 

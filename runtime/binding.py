@@ -119,8 +119,9 @@ def load_c_module(path) -> CModule:
 
 
 def build_model_library(folder, flags: tuple[str, ...] | None = None) -> Path:
-    """Compile the model of a C target folder (`model.c`; the integrator is the core's) into
-    `folder/build/<key>/libdepsim_model.so`, unless it is there already. Raises CBuildError."""
+    """Compile the model of a C target folder (`model.c` and any `model_<function>.c`; the
+    integrator is the core's) into `folder/build/<key>/libdepsim_model.so`, unless it is
+    there already. Raises CBuildError."""
     folder = Path(folder)
     source = folder / MODEL_SOURCE
     if not source.is_file():
@@ -128,7 +129,8 @@ def build_model_library(folder, flags: tuple[str, ...] | None = None) -> Path:
 
         raise CBuildError(f"{folder} is not a depsim C target folder (no {MODEL_SOURCE})")
     extra = {} if flags is None else {"flags": tuple(flags)}
-    return build_shared_library([source], folder / "build", MODEL_LIBRARY, include=(folder,),
+    sources = [source] + sorted(folder.glob("model_*.c"))
+    return build_shared_library(sources, folder / "build", MODEL_LIBRARY, include=(folder,),
                                 **extra)
 
 

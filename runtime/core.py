@@ -14,6 +14,7 @@ second definition of any field in Python.
 
 from __future__ import annotations
 
+import concurrent.futures
 import functools
 import hashlib
 import os
@@ -88,8 +89,9 @@ def build_shared_library(sources: list[Path], target_dir: Path, name: str,
                          ) -> Path:
     """Compile `sources` into `target_dir/<key>/<name>` unless it is there already; the key
     hashes the sources and every header beside them, the compiler and the flags. Returns the
-    library's path. The file is written under a temporary name and renamed, so concurrent
-    builders never load a partial library. Raises CBuildError."""
+    library's path. The sources compile to objects in parallel (one compiler per CPU), then
+    link. The file is written under a temporary name and renamed, so concurrent builders
+    never load a partial library. Raises CBuildError."""
     cc = compiler()
     all_flags = tuple(flags) + SHARED_FLAGS
     digest = hashlib.sha256()
@@ -103,21 +105,34 @@ def build_shared_library(sources: list[Path], target_dir: Path, name: str,
     if target.exists():
         return target
     target.parent.mkdir(parents=True, exist_ok=True)
-    fd, partial = tempfile.mkstemp(dir=target.parent, suffix=".so.tmp")
-    os.close(fd)
-    command = [*cc, *all_flags, *[f"-I{folder}" for folder in include], "-o", partial,
-               *map(str, sources), "-lm"]
-    try:
-        run = subprocess.run(command, capture_output=True, text=True)
-    except OSError as exc:
-        os.unlink(partial)
-        raise CBuildError(f"the C compiler '{' '.join(cc)}' does not run: {exc}") from None
-    if run.returncode != 0:
-        os.unlink(partial)
-        raise CBuildError(f"building {name} failed:\n$ {' '.join(command)}\n"
-                          f"{run.stdout}{run.stderr}")
-    os.replace(partial, target)
+    with tempfile.TemporaryDirectory(dir=target.parent) as scratch:
+        includes = [f"-I{folder}" for folder in include]
+        objects = [Path(scratch) / f"{k}_{source.stem}.o" for k, source in enumerate(sources)]
+        commands = [[*cc, *flags, "-fPIC", *includes, "-c", "-o", str(o), str(s)]
+                    for s, o in zip(sources, objects)]
+        run_compilers(commands, name)
+        partial = Path(scratch) / name
+        run_compilers([[*cc, *all_flags, "-o", str(partial), *map(str, objects), "-lm"]], name)
+        os.replace(partial, target)
     return target
+
+
+def run_compilers(commands: list[list[str]], what: str, cwd: Path | None = None) -> None:
+    """Run compiler commands, as many at once as there are CPUs; CBuildError with the
+    failing command and its output (`what`: what was being built)."""
+
+    def run(command: list[str]) -> None:
+        try:
+            done = subprocess.run(command, cwd=cwd, capture_output=True, text=True)
+        except OSError as exc:
+            raise CBuildError(f"the C compiler '{command[0]}' does not run: {exc}") from None
+        if done.returncode != 0:
+            raise CBuildError(f"building {what} failed:\n$ {' '.join(command)}\n"
+                              f"{done.stdout}{done.stderr}".rstrip())
+
+    workers = min(len(commands), os.cpu_count() or 1)
+    with concurrent.futures.ThreadPoolExecutor(max(workers, 1)) as pool:
+        list(pool.map(run, commands))
 
 
 def core_sources() -> list[Path]:
@@ -173,5 +188,5 @@ def core():
     return ffi().dlopen(str(core_library_path()))
 
 
-__all__ = ["CBuildError", "cache_root", "compiler", "build_shared_library", "core_sources",
-           "core_library_path", "ffi", "core", "SOURCE_DIR", "CFLAGS"]
+__all__ = ["CBuildError", "cache_root", "compiler", "build_shared_library", "run_compilers",
+           "core_sources", "core_library_path", "ffi", "core", "SOURCE_DIR", "CFLAGS"]

@@ -65,6 +65,40 @@ def test_generated_header_names_model_and_source(example_builds):
     assert not re.search(r"\b(19|20)\d\d-\d\d-\d\d|\d\d:\d\d:\d\d", text)  # no timestamp
 
 
+def test_long_functions_in_their_own_files_give_the_same_program(example_builds, tmp_path,
+                                                                  monkeypatch):
+    """With every function long enough to go into a file of its own (model_<name>.c), the
+    folder still builds warning-free, with `make -j2` and through depsim, and the program
+    writes byte for byte the CSV of the one-file folder."""
+    from depsim.codegen import c_emit
+    from depsim.runtime.binding import build_model_library, load_c_module
+
+    built = example_builds("slider_crank")
+    monkeypatch.setattr(c_emit, "OWN_FILE_CHARS", 0)
+    folder = compile_c(built.model, tmp_path / "split")
+    own = sorted(p.name for p in folder.glob("model_*.c"))
+    assert len(own) > 10 and "model_phi_q.c" in own
+    assert "void model_phi_q(" not in (folder / "model.c").read_text()
+    assert "const dep_model depsim_model" in (folder / "model.c").read_text()
+    for name in own:
+        run = cc(*STRICT, "-c", name, "-o", tmp_path / f"{name}.o", cwd=folder)
+        assert run.returncode == 0, f"{name}:\n{run.stderr}"
+    made = subprocess.run(["make", "-j2", "-C", str(folder)], capture_output=True, text=True)
+    assert made.returncode == 0, made.stdout + made.stderr
+    monkeypatch.undo()
+    one = compile_c(built.model, tmp_path / "one")
+    assert not list(one.glob("model_*.c"))
+    subprocess.run(["make", "-C", str(one)], capture_output=True, check=True)
+    for where in (folder, one):
+        run = subprocess.run([str(where / c_program_name(built.model)), "--t-end", "0.2",
+                              "-o", tmp_path / f"{where.name}.csv"],
+                             capture_output=True, text=True)
+        assert run.returncode == 0, run.stderr
+    assert (tmp_path / "split.csv").read_bytes() == (tmp_path / "one.csv").read_bytes()
+    split = simulate(load_c_module(build_model_library(folder)), t_end=0.2)
+    np.testing.assert_array_equal(split.q, simulate(built.c, t_end=0.2).q)
+
+
 def test_runtime_compiles_warning_free(example_builds, tmp_path):
     folder = example_builds("pendulum").folder
     for name in sources(folder) + ["main.c"]:

@@ -74,8 +74,8 @@ def tree_values(p):
 def tree_pose(v, p):
     """The pose placed along the assembly tree with joint values v, shape (NQ,)."""
     q = numpy.zeros((3,))
-    x0 = p[4] - v[0]
     x1 = 0.5*p[0]
+    x0 = p[4] - v[0]
     s0 = x1*math.cos(x0)
     q[0] = s0
     s1 = -x1*math.sin(x0)
@@ -88,8 +88,8 @@ def tree_pose(v, p):
 def tree_tangent(v, vd, p):
     """d tree_pose / d v times the joint rates vd: the tree's velocities, shape (NQ,)."""
     qd = numpy.zeros((3,))
-    x0 = p[4] - v[0]
     x1 = 0.5*p[0]*vd[0]
+    x0 = p[4] - v[0]
     s0 = x1*math.sin(x0)
     qd[0] = s0
     s1 = x1*math.cos(x0)
