@@ -33,11 +33,11 @@ C_ENVIRONMENT = ENVIRONMENT.overlay()
 C_ENVIRONMENT.filters.update(c_string=c_string, c_comment=c_comment, c_double=c_double)
 
 GENERATED_FILES = ("model.c", "model.h", "Makefile")
-# A function whose body is longer than this many characters goes into a file of its own,
+# A function whose expressions are longer than this many characters goes into a file of its own,
 # model_<name>.c: a C compiler's optimisation passes take time growing faster than a function's
 # length, and separate files compile in parallel (`make -j`, and depsim's own builds). Small
 # models keep everything in model.c.
-OWN_FILE_CHARS = 200_000
+OWN_FILE_CHARS = 50_000
 _INTERFACE = {f.name: f for f in interface.FUNCTIONS}
 PROGRAM_SOURCE = "main.c"  # the program's entry point, left out of the library
 
@@ -73,7 +73,7 @@ class CFunction:
 
     @property
     def length(self) -> int:
-        """Characters of its body's statements."""
+        """Characters of its body's names and expressions."""
         return sum(len(s.name) + len(s.value) for s in self.statements)
 
 

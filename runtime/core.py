@@ -110,6 +110,7 @@ def build_shared_library(sources: list[Path], target_dir: Path, name: str,
         objects = [Path(scratch) / f"{k}_{source.stem}.o" for k, source in enumerate(sources)]
         commands = [[*cc, *flags, "-fPIC", *includes, "-c", "-o", str(o), str(s)]
                     for s, o in zip(sources, objects)]
+        commands.sort(key=lambda c: -Path(c[-1]).stat().st_size)  # the longest start first
         run_compilers(commands, name)
         partial = Path(scratch) / name
         run_compilers([[*cc, *all_flags, "-o", str(partial), *map(str, objects), "-lm"]], name)
