@@ -340,8 +340,8 @@ typedef struct dep_stepper {
     double *dq, *dqd, *column;
     /* The step's response to a unit force on each coordinate the active rows touch:
        slot[j] (-1: untouched), columns + 2 nq slot[j] = (dq, dqd); weight: l(u) at the
-       stage times */
-    int *slot, n_slots;
+       stage times. At most max_slots: the coordinates any constraint or lock row can touch */
+    int *slot, n_slots, max_slots;
     double *columns, weight[4];
 } dep_stepper;
 

@@ -125,8 +125,24 @@ int dep_stepper_prepare_implicit(dep_stepper *stepper, dep_arena *arena)
     if (dep_implicit_init(&stepper->im, stepper->system, stepper->ny, arena) != DEP_OK) {
         return DEP_MEMORY_ERROR;
     }
+    const dep_model *m = stepper->system->model;
     stepper->slot = dep_bytes(arena, (size_t)nq * sizeof *stepper->slot);
-    stepper->columns = dep_doubles(arena, 2 * (size_t)nq * (size_t)nq);
+    if (stepper->slot == NULL) {
+        return DEP_MEMORY_ERROR;
+    }
+    /* the columns any row can touch: Phi_q's and the hinge Jacobian's (every lock row's) */
+    memset(stepper->slot, 0, (size_t)nq * sizeof *stepper->slot);
+    for (int k = 0; k < m->nnz; ++k) {
+        stepper->slot[m->phi_q_cols[k]] = 1;
+    }
+    for (int k = 0; k < m->nhnz; ++k) {
+        stepper->slot[m->hinge_jacobian_cols[k]] = 1;
+    }
+    stepper->max_slots = 0;
+    for (int j = 0; j < nq; ++j) {
+        stepper->max_slots += stepper->slot[j];
+    }
+    stepper->columns = dep_doubles(arena, 2 * (size_t)nq * (size_t)stepper->max_slots + 1);
     return arena->failed ? DEP_MEMORY_ERROR : DEP_OK;
 }
 
@@ -287,6 +303,9 @@ static void unit_responses(dep_stepper *stepper)
     }
     int units[DEP_RESPONSE_BLOCK], count = 0;
     for (int j = 0; j <= nq; ++j) { /* the unit forces, DEP_RESPONSE_BLOCK at a time */
+        if (j < nq && stepper->slot[j] == nq && stepper->n_slots + count == stepper->max_slots) {
+            stepper->slot[j] = -1; /* no room (no row of the model's patterns touches it) */
+        }
         if (j < nq && stepper->slot[j] == nq) {
             stepper->slot[j] = stepper->n_slots + count;
             units[count++] = j;
