@@ -431,7 +431,9 @@ int dep_run_assemble(dep_run *run, double *q, double *qd)
     x.J = dep_doubles(arena, DEP_JACOBIAN_SIZE(m));
     x.H = dep_doubles(arena, (size_t)m->nhnz + 1);
     x.A = dep_doubles(arena, rows * nfree + 1);
-    x.N = dep_doubles(arena, nfree * nfree + 1);
+    size_t side = nfree < rows ? nfree : rows; /* normal_solve: n x n with n <= live rows, or
+                                                   live x live with live < n */
+    x.N = dep_doubles(arena, side * side + 1);
     x.F = dep_doubles(arena, rows + 1);
     x.g = dep_doubles(arena, rows + 1);
     x.step = dep_doubles(arena, nv + 1);
