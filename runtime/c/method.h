@@ -107,15 +107,19 @@ typedef void (*dep_force_function)(void *context, double t, const double *y, dou
    y = (q, qd, work) with the Jacobian [[0, I, 0], [-M^-1 K, -M^-1 D, 0], 0] of the stiff
    forces' K and D (the model's `stiffness`: beams, hinge springs and dampers, cables): each
    stage solves with
-   W = M + gamma h D + gamma^2 h^2 K, factorised once per step in envelope form. */
+   W = M + gamma h D + gamma^2 h^2 K, factorised in envelope form. Because any T keeps the
+   order, K, D and W are kept while the step size stays the same and K and D at the step's
+   start are within DEP_JACOBIAN_DRIFT of them (dep_implicit_prepare). */
 typedef struct dep_implicit {
     const dep_system *system;
     int nq, ny, nkz, damped;
-    double *K, *D;          /* nkz, at the step's start */
+    double *K, *D;          /* nkz, W's: at the start of the step that factorised it */
+    double *K_now, *D_now;  /* nkz: at the step's start */
+    int *diagonal;          /* nq: where (j, j) sits in the stiffness pattern, -1 if absent */
     int *lower;             /* nkz: where entry k sits in W's envelope, -1 above the diagonal */
     double *mass_envelope;  /* M in W's envelope */
     dep_envelope W;
-    double h;
+    double h;               /* W's step size; 0: none yet, or forgotten */
     long long id;           /* changes with every factorisation */
     double *g0;             /* ny: g at the step's start (stage 1 of every integration) */
     double *k, *arg, *g, *rhs; /* 4 ny, ny, ny, nq */
@@ -126,10 +130,19 @@ typedef struct dep_implicit {
 } dep_implicit;
 
 #define DEP_RESPONSE_BLOCK 8
+/* W is kept for a step of its size while every entry of K and D now is within this fraction
+   of sqrt(K_ii K_jj) (sqrt(D_ii D_jj)) of W's, the scale a positive semi-definite matrix's
+   entries have whatever the coordinates' units */
+#define DEP_JACOBIAN_DRIFT 1e-3
 
 int dep_implicit_init(dep_implicit *im, const dep_system *system, int ny, dep_arena *arena);
-/* K and D at q, W for step h factorised; 0 when W is not positive definite. */
+/* W for a step of size h from q: the last one while h is the same and K and D at q are
+   within DEP_JACOBIAN_DRIFT of its own, else W anew from them (im->id changes); 0 when W is
+   not positive definite. */
 int dep_implicit_prepare(dep_implicit *im, const double *q, double h);
+/* The next dep_implicit_prepare evaluates K and D afresh (after an event, new inputs, or K
+   and D used for something else). */
+void dep_implicit_forget(dep_implicit *im);
 /* One step from (t0, y0), g0 = g(t0, y0) already in im->g0; four evaluations of g less one. */
 void dep_rosenbrock_step(dep_implicit *im, dep_rk_step *rk, dep_force_function g,
                          void *context, double t0, const double *y0, double h);
@@ -340,9 +353,12 @@ typedef struct dep_stepper {
     double *dq, *dqd, *column;
     /* The step's response to a unit force on each coordinate the active rows touch:
        slot[j] (-1: untouched), columns + 2 nq slot[j] = (dq, dqd); weight: l(u) at the
-       stage times. At most max_slots: the coordinates any constraint or lock row can touch */
+       stage times. At most max_slots: the coordinates any constraint or lock row can touch.
+       They depend on W, the weights and the active rows, and are kept while those are:
+       responses_id is the im->id they were computed with (-1: none) */
     int *slot, n_slots, max_slots;
     double *columns, weight[4];
+    long long responses_id;
 } dep_stepper;
 
 double dep_constraint_tolerance(double tol);

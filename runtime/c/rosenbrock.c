@@ -54,6 +54,9 @@ int dep_implicit_init(dep_implicit *im, const dep_system *system, int ny, dep_ar
     im->nkz = nkz;
     im->K = dep_doubles(arena, (size_t)nkz);
     im->D = dep_doubles(arena, (size_t)nkz);
+    im->K_now = dep_doubles(arena, (size_t)nkz);
+    im->D_now = dep_doubles(arena, (size_t)nkz);
+    im->diagonal = dep_bytes(arena, (size_t)nq * sizeof *im->diagonal + 1);
     im->lower = dep_bytes(arena, (size_t)nkz * sizeof *im->lower + 1);
     int *first = dep_bytes(arena, (size_t)nq * sizeof *first + 1);
     if (arena->failed) {
@@ -88,17 +91,42 @@ int dep_implicit_init(dep_implicit *im, const dep_system *system, int ny, dep_ar
         return DEP_MEMORY_ERROR;
     }
     dep_mass_to_envelope(&system->mass, &im->W, im->mass_envelope);
+    for (int j = 0; j < nq; ++j) {
+        im->diagonal[j] = -1;
+    }
     for (int k = 0; k < nkz; ++k) {
         int i = model->stiffness_rows[k], j = model->stiffness_cols[k];
         im->lower[k] = j <= i ? im->W.offset[i] + j - im->W.first[i] : -1;
+        if (i == j) {
+            im->diagonal[i] = k;
+        }
     }
     return DEP_OK;
+}
+
+/* Whether `now` is within DEP_JACOBIAN_DRIFT of W's `held` (both on the stiffness pattern). */
+static int near(const dep_implicit *im, const double *held, const double *now)
+{
+    const int *rows = im->system->model->stiffness_rows, *cols = im->system->model->stiffness_cols;
+    for (int k = 0; k < im->nkz; ++k) {
+        int di = im->diagonal[rows[k]], dj = im->diagonal[cols[k]];
+        double scale = di >= 0 && dj >= 0 ? sqrt(fabs(held[di] * held[dj])) : 0.0;
+        if (!(fabs(now[k] - held[k]) <= DEP_JACOBIAN_DRIFT * scale)) {
+            return 0;
+        }
+    }
+    return 1;
 }
 
 int dep_implicit_prepare(dep_implicit *im, const double *q, double h)
 {
     const dep_system *s = im->system;
-    s->model->stiffness(q, s->p, im->K, im->D);
+    s->model->stiffness(q, s->p, im->K_now, im->D_now);
+    if (h == im->h && near(im, im->K, im->K_now) && near(im, im->D, im->D_now)) {
+        return 1;
+    }
+    memcpy(im->K, im->K_now, (size_t)im->nkz * sizeof *im->K);
+    memcpy(im->D, im->D_now, (size_t)im->nkz * sizeof *im->D);
     im->damped = 0;
     for (int k = 0; k < im->nkz; ++k) {
         im->damped |= im->D[k] != 0.0;
@@ -112,7 +140,16 @@ int dep_implicit_prepare(dep_implicit *im, const double *q, double h)
     }
     im->h = h;
     im->id++;
-    return dep_envelope_factor(&im->W);
+    if (!dep_envelope_factor(&im->W)) {
+        im->h = 0.0;
+        return 0;
+    }
+    return 1;
+}
+
+void dep_implicit_forget(dep_implicit *im)
+{
+    im->h = 0.0;
 }
 
 /* out -= A x for a matrix on the stiffness pattern (K or D), on `count` interleaved vectors
@@ -252,6 +289,7 @@ double dep_implicit_fastest(dep_implicit *im, const double *q)
     const dep_system *s = im->system;
     int nq = im->nq;
     double *x = im->arg, *y = im->g, rate = 0.0;
+    dep_implicit_forget(im); /* K and D change under W */
     s->model->stiffness(q, s->p, im->K, im->D);
     for (int j = 0; j < nq; ++j) {
         x[j] = (j % 2 ? 1.0 : -1.0) * (1.0 + 0.1 * (j % 7)); /* rich in the fast modes */

@@ -27,6 +27,7 @@
 #define CONSTRAINT_FRACTION 0.01
 #define LINEAR_LIMIT 0.1 /* tolerances: larger position-pass moves integrate the step again */
 #define ROUNDOFF (16 * DEP_EPS)
+#define WEIGHT_MATCH 1e-12 /* end weights (of order 1) this close give the same responses */
 
 /* The passes' iteration tolerance for an integration tolerance tol (constraint_tolerance). */
 double dep_constraint_tolerance(double tol)
@@ -143,6 +144,7 @@ int dep_stepper_prepare_implicit(dep_stepper *stepper, dep_arena *arena)
         stepper->max_slots += stepper->slot[j];
     }
     stepper->columns = dep_doubles(arena, 2 * (size_t)nq * (size_t)stepper->max_slots + 1);
+    stepper->responses_id = -1;
     return arena->failed ? DEP_MEMORY_ERROR : DEP_OK;
 }
 
@@ -281,16 +283,25 @@ static void unit_block(dep_stepper *stepper, const int *units, int count)
 }
 
 /* The Rosenbrock step's responses to a unit force on each coordinate the active rows touch
-   (stepper->columns), so that every later response to a constraint force is a sum of them. */
+   (stepper->columns), so that every later response to a constraint force is a sum of them;
+   the last step's while W, the profile's end weights and the active rows are the same (the
+   rows change only at a restart, which makes W new). The weights of equal steps differ in
+   their last bits (the times are sums); WEIGHT_MATCH bounds what is taken as the same. */
 static void unit_responses(dep_stepper *stepper)
 {
     const dep_constraints *cs = stepper->constraints;
-    int nq = stepper->nq;
-    double times[4];
+    int nq = stepper->nq, same = stepper->responses_id == stepper->im.id;
+    double times[4], weight[4];
     dep_rosenbrock_times(stepper->start->t, stepper->h, times);
     for (int i = 0; i < 4; ++i) {
-        stepper->weight[i] = dep_profile_end_weight(&stepper->profile, times[i]);
+        weight[i] = dep_profile_end_weight(&stepper->profile, times[i]);
+        same = same && fabs(weight[i] - stepper->weight[i]) <= WEIGHT_MATCH;
     }
+    if (same) {
+        return;
+    }
+    memcpy(stepper->weight, weight, sizeof weight);
+    stepper->responses_id = stepper->im.id;
     for (int j = 0; j < nq; ++j) {
         stepper->slot[j] = -1;
     }

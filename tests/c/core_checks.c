@@ -4,8 +4,9 @@
  *   core_checks iteration H      one step of size H from the initial state with the worst
  *                                prediction lambda_{i+1} = 0 at tol 1e-12: prints each
  *                                pass's error after every iteration of (6)
- *   core_checks fixed N T        N fixed steps to T without step control (tol 1e-14): prints
- *                                the final q, then qd
+ *   core_checks fixed N T [TOL]  N fixed steps to T without step control (tol 1e-14 unless
+ *                                given): prints the final q, then qd
+ *   core_checks fixed_implicit N T [TOL]  the same with the linearly implicit step
  *   core_checks project NQ NC    reads M (NQ x NQ), J (NC x NQ) and qd (NQ) from stdin, prints
  *                                the plastic-impact projection of qd onto J qd+ = 0
  *   core_checks interpolant N    reads t_prior t0 t1, then (q, qd, qdd) at t0 and t1 and (qd,
@@ -97,14 +98,15 @@ static int iteration(double h)
     return 0;
 }
 
-/* n fixed steps to t_end; implicit: with the linearly implicit step and its quadratic
-   profile (the model's T is then whatever stiff forces it has, none for a rigid one). */
-static int fixed(int n, double t_end, int implicit)
+/* n fixed steps to t_end at tol; implicit: with the linearly implicit step and its quadratic
+   profile (the model's T is then whatever stiff forces it has, none for a rigid one), which
+   keeps K, D and W over up to DEP_JACOBIAN_AGE steps of the same size. */
+static int fixed(int n, double t_end, double tol, int implicit)
 {
     parts x;
     dep_failure failure;
     int nq = depsim_model.nq, nodes = implicit ? 2 : DEP_PROFILE_NODES;
-    if (start(&x, 1e-14) != 0) {
+    if (start(&x, tol) != 0) {
         return 1;
     }
     if (implicit) {
@@ -123,7 +125,9 @@ static int fixed(int n, double t_end, int implicit)
         dep_history_predict(&x.history, &profile, predicted);
         if (dep_step(&x.stepper, &x.state, &profile, predicted, &x.outcome, &failure)
             != DEP_OK) {
-            return fail("step");
+            fprintf(stderr, "core_checks: step %d, %s pass: %s\n", k,
+                    dep_stage_names[failure.stage], failure.reason);
+            return 1;
         }
         dep_state_copy(&x.state, &x.outcome.state, nq, x.cs.nc, x.system.nd);
         dep_history_add(&x.history, x.state.t, x.state.lam);
@@ -248,11 +252,11 @@ int main(int argc, char **argv)
     if (argc == 3 && strcmp(argv[1], "iteration") == 0) {
         return iteration(atof(argv[2]));
     }
-    if (argc == 4 && strcmp(argv[1], "fixed") == 0) {
-        return fixed(atoi(argv[2]), atof(argv[3]), 0);
+    if ((argc == 4 || argc == 5) && strcmp(argv[1], "fixed") == 0) {
+        return fixed(atoi(argv[2]), atof(argv[3]), argc == 5 ? atof(argv[4]) : 1e-14, 0);
     }
-    if (argc == 4 && strcmp(argv[1], "fixed_implicit") == 0) {
-        return fixed(atoi(argv[2]), atof(argv[3]), 1);
+    if ((argc == 4 || argc == 5) && strcmp(argv[1], "fixed_implicit") == 0) {
+        return fixed(atoi(argv[2]), atof(argv[3]), argc == 5 ? atof(argv[4]) : 1e-14, 1);
     }
     if (argc == 4 && strcmp(argv[1], "project") == 0) {
         return project(atoi(argv[2]), atoi(argv[3]));
@@ -260,5 +264,6 @@ int main(int argc, char **argv)
     if (argc == 3 && strcmp(argv[1], "interpolant") == 0) {
         return interpolant(atoi(argv[2]));
     }
-    return fail("usage: core_checks iteration H | fixed N T | project NQ NC | interpolant N");
+    return fail("usage: core_checks iteration H | fixed N T [TOL] | fixed_implicit N T [TOL] | "
+                "project NQ NC | interpolant N");
 }

@@ -29,8 +29,9 @@ def checks(tmp_path_factory):
 
     def get(name):
         if name not in built:
-            folder = compile_c(load_model(EXAMPLES / f"{name}.dep"),
-                               tmp_path_factory.mktemp(name))
+            source = HERE / "models" / f"{name}.dep"
+            source = source if source.exists() else EXAMPLES / f"{name}.dep"
+            folder = compile_c(load_model(source), tmp_path_factory.mktemp(name))
             program = folder / "core_checks"
             subprocess.run([*compiler(), "-O2", "-std=c99", "-Wall", "-Wextra", "-Werror",
                             f"-I{folder}", "-o", str(program), str(HERE / "core_checks.c"),
@@ -122,6 +123,25 @@ def test_observed_order_of_the_linearly_implicit_step_is_three(checks):
         errors.append(max(abs(phi + np.pi / 2 - theta), abs(phi_rate - omega)))
     observed = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
     assert abs(observed[-1] - 3) < 0.3, observed
+
+
+def test_the_linearly_implicit_step_keeps_order_three_with_its_matrix_held(checks):
+    """At a fixed step size the linearly implicit step keeps K, D and W's factorisation while
+    K and D at the step's start stay within DEP_JACOBIAN_DRIFT of them (runtime/c/method.h).
+    On a flexible beam swinging down from 60 degrees they turn with it, so the held ones lag
+    the state: the step must still converge with order 3 (a W-method's order holds for any T)
+    to the explicit step's solution (order 5, 12,800 steps, converged to 1e-12 m). Measured:
+    3.37 and 3.07, the errors within 2 % of those with K and D evaluated at every step."""
+    tol = 1e-10  # the beam's acceleration pass reaches about 1e-13 (round-off), not 1e-14
+    run = checks("beam_pendulum")
+    reference = np.array([float(v) for v in run("fixed", 12800, 0.5, tol).split()])
+    nq = len(reference) // 2
+    errors = []
+    for n in (200, 400, 800):
+        values = np.array([float(v) for v in run("fixed_implicit", n, 0.5, tol).split()])
+        errors.append(np.max(np.abs(values[:nq] - reference[:nq])))
+    observed = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
+    assert np.all(np.abs(observed - 3) < 0.45), observed
 
 
 def test_step_interpolant_is_exact_for_quintics_with_the_prior_point(checks):
