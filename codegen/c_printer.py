@@ -3,8 +3,10 @@
 `CPrinter` combines `SlotPrinter` (slots, temporaries, exact doubles) with sympy's C99 printer
 and overrides what would make C and NumPy disagree or break strict C99:
 
-* powers are printed as the NumPy printer chooses them (`sqrt`, `1.0/sqrt`, else `pow`), so
-  both backends call the same libm functions (`cbrt` would round differently from `x**(1/3)`);
+* powers are printed as the NumPy printer chooses them (small whole and half-whole ones of a
+  symbol as products, `SlotPrinter._product`; `sqrt`, `1.0/sqrt`, else `pow`), so both backends
+  do the same arithmetic and call the same libm functions (`cbrt` would round differently
+  from `x**(1/3)`);
 * `pi` and `E` are exact double literals (`M_PI` is not in strict C99's math.h);
 * integers too large for a C `long` are printed as doubles, as Python converts them;
 * `sign`, `Heaviside` and `Piecewise` print as one-line conditional expressions with the
@@ -38,6 +40,9 @@ class CPrinter(SlotPrinter, C99CodePrinter):
 
     def _print_Pow(self, expr: sympy.Pow) -> str:
         base, exp = expr.base, expr.exp
+        product = self._product(expr)
+        if product is not None:
+            return product
         if exp == sympy.S.Half:
             return f"sqrt({self._print(base)})"
         if exp == -sympy.S.Half:

@@ -14,6 +14,10 @@ import sympy
 from sympy.printing.numpy import NumPyPrinter
 from sympy.printing.pycode import PythonCodePrinter
 
+# x**n for whole n with 2 <= |n| <= LARGEST_PRODUCT, and x**(n + 1/2) for such n and n = 1,
+# print as products of x and sqrt(x) (SlotPrinter._product)
+LARGEST_PRODUCT = 4
+
 
 class LoweringError(Exception):
     """An expression refers to something that is not an input of the function being lowered
@@ -39,6 +43,31 @@ class SlotPrinter:
 
     def _print_Float(self, value: sympy.Float) -> str:
         return repr(float(value))
+
+    def _print_Pow(self, expr: sympy.Pow) -> str:
+        product = self._product(expr)
+        return product if product is not None else super()._print_Pow(expr)
+
+    def _product(self, expr: sympy.Pow) -> str | None:
+        """A small whole or half-whole power of a symbol (a slot or a temporary) as a product,
+        `(x*x)`, `(1.0/(x*x*sqrt(x)))`, in every backend; None for any other power. A
+        multiplication is correctly rounded where libm's pow is not always, C compilers
+        already turn pow(x, 2) into x*x (so the backends would differ), and a pow call costs
+        tens of multiplications (a beam's force has dozens per evaluation). A compound base
+        stays in pow, evaluated once. The parentheses keep the product whole where the caller
+        sees only a power (after `/`, sympy prints the denominator by the power's
+        precedence)."""
+        base, exp = expr.base, expr.exp
+        if not (base.is_Symbol and exp.is_Rational and (2 * exp).is_Integer and abs(exp) > 1):
+            return None
+        whole, half = divmod(int(abs(2 * exp)), 2)
+        if whole > LARGEST_PRODUCT:
+            return None
+        factors = [self.parenthesize(base, 50)] * whole  # 50: a product's precedence
+        if half:
+            factors.append(self._print(sympy.Pow(base, sympy.S.Half, evaluate=False)))
+        product = "*".join(factors)
+        return f"({product})" if exp > 0 else f"(1.0/({product}))"
 
 
 class PythonPrinter(SlotPrinter, PythonCodePrinter):

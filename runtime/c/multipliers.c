@@ -43,7 +43,8 @@ int dep_multipliers_init(dep_multipliers *mp, const dep_mass *mass,
     mp->MinvJT = dep_doubles(arena, (size_t)EXPLICIT_BELOW * nq);
     mp->first = dep_bytes(arena, nc * sizeof *mp->first);
     mp->offset = dep_bytes(arena, (nc + 1) * sizeof *mp->offset);
-    mp->envelope = (dep_envelope){0, mp->first, mp->offset, mp->S, mp->L};
+    mp->envelope = (dep_envelope){0, mp->first, mp->offset, mp->S, mp->L,
+                                  dep_doubles(arena, nc + 1)};
     mp->column_start = dep_bytes(arena, (nq + 1) * sizeof *mp->column_start);
     mp->column_rows = dep_bytes(arena, DEP_JACOBIAN_SIZE(cs->system->model) * sizeof(int));
     mp->column_entries = dep_bytes(arena, DEP_JACOBIAN_SIZE(cs->system->model) * sizeof(int));

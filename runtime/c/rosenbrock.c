@@ -56,6 +56,8 @@ int dep_implicit_init(dep_implicit *im, const dep_system *system, int ny, dep_ar
     im->D = dep_doubles(arena, (size_t)nkz);
     im->K_now = dep_doubles(arena, (size_t)nkz);
     im->D_now = dep_doubles(arena, (size_t)nkz);
+    im->K_drift = dep_doubles(arena, (size_t)nkz);
+    im->D_drift = dep_doubles(arena, (size_t)nkz);
     im->diagonal = dep_bytes(arena, (size_t)nq * sizeof *im->diagonal + 1);
     im->lower = dep_bytes(arena, (size_t)nkz * sizeof *im->lower + 1);
     int *first = dep_bytes(arena, (size_t)nq * sizeof *first + 1);
@@ -104,14 +106,23 @@ int dep_implicit_init(dep_implicit *im, const dep_system *system, int ny, dep_ar
     return DEP_OK;
 }
 
-/* Whether `now` is within DEP_JACOBIAN_DRIFT of W's `held` (both on the stiffness pattern). */
-static int near(const dep_implicit *im, const double *held, const double *now)
+/* drift[k] = DEP_JACOBIAN_DRIFT sqrt(|A_ii A_jj|) for entry k = (i, j) of A on the stiffness
+   pattern (0 where a diagonal entry is absent: A_ij is then 0 for a semi-definite A). */
+static void drift_bounds(const dep_implicit *im, const double *A, double *drift)
 {
     const int *rows = im->system->model->stiffness_rows, *cols = im->system->model->stiffness_cols;
     for (int k = 0; k < im->nkz; ++k) {
         int di = im->diagonal[rows[k]], dj = im->diagonal[cols[k]];
-        double scale = di >= 0 && dj >= 0 ? sqrt(fabs(held[di] * held[dj])) : 0.0;
-        if (!(fabs(now[k] - held[k]) <= DEP_JACOBIAN_DRIFT * scale)) {
+        drift[k] = di >= 0 && dj >= 0 ? DEP_JACOBIAN_DRIFT * sqrt(fabs(A[di] * A[dj])) : 0.0;
+    }
+}
+
+/* Whether every entry of `now` is within drift of `held`. */
+static int near(const dep_implicit *im, const double *held, const double *now,
+                const double *drift)
+{
+    for (int k = 0; k < im->nkz; ++k) {
+        if (!(fabs(now[k] - held[k]) <= drift[k])) {
             return 0;
         }
     }
@@ -122,11 +133,14 @@ int dep_implicit_prepare(dep_implicit *im, const double *q, double h)
 {
     const dep_system *s = im->system;
     s->model->stiffness(q, s->p, im->K_now, im->D_now);
-    if (h == im->h && near(im, im->K, im->K_now) && near(im, im->D, im->D_now)) {
+    if (h == im->h && near(im, im->K, im->K_now, im->K_drift)
+        && near(im, im->D, im->D_now, im->D_drift)) {
         return 1;
     }
     memcpy(im->K, im->K_now, (size_t)im->nkz * sizeof *im->K);
     memcpy(im->D, im->D_now, (size_t)im->nkz * sizeof *im->D);
+    drift_bounds(im, im->K, im->K_drift);
+    drift_bounds(im, im->D, im->D_drift);
     im->damped = 0;
     for (int k = 0; k < im->nkz; ++k) {
         im->damped |= im->D[k] != 0.0;
@@ -158,6 +172,17 @@ static void pattern_subtract(const dep_implicit *im, const double *values, int c
                              const double *x, double *out)
 {
     const int *rows = im->system->model->stiffness_rows, *cols = im->system->model->stiffness_cols;
+    if (count == 1) { /* one row's entries in a local sum (the pattern is by rows) */
+        for (int k = 0; k < im->nkz;) {
+            int row = rows[k];
+            double sum = out[row];
+            for (; k < im->nkz && rows[k] == row; ++k) {
+                sum -= values[k] * x[cols[k]];
+            }
+            out[row] = sum;
+        }
+        return;
+    }
     for (int k = 0; k < im->nkz; ++k) {
         double a = values[k];
         double *o = out + (size_t)rows[k] * count;

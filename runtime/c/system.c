@@ -144,6 +144,7 @@ int dep_envelope_init(dep_envelope *e, int n, const int *first, dep_arena *arena
     }
     e->A = dep_doubles(arena, (size_t)e->offset[n] + 1);
     e->L = dep_doubles(arena, (size_t)e->offset[n] + 1);
+    e->inverse = dep_doubles(arena, (size_t)n + 1);
     return arena->failed ? DEP_MEMORY_ERROR : DEP_OK;
 }
 
@@ -168,6 +169,7 @@ int dep_envelope_factor(dep_envelope *e)
                 return 0;
             } else {
                 DEP_ENVELOPE_AT(e, e->L, i, i) = sqrt(sum);
+                e->inverse[i] = 1.0 / DEP_ENVELOPE_AT(e, e->L, i, i);
             }
         }
     }
@@ -179,34 +181,77 @@ void dep_envelope_solve(const dep_envelope *e, const double *b, double *x)
     dep_envelope_solve_block(e, 1, b, x);
 }
 
+/* One right side: L y = b by rows (a dot product each), L^T x = y by columns. */
+static void solve_one(const dep_envelope *e, double *x)
+{
+    for (int i = 0; i < e->n; ++i) {
+        const double *row = &DEP_ENVELOPE_AT(e, e->L, i, 0);
+        double sum = x[i];
+        for (int k = e->first[i]; k < i; ++k) {
+            sum -= row[k] * x[k];
+        }
+        x[i] = sum * e->inverse[i];
+    }
+    for (int i = e->n - 1; i >= 0; --i) {
+        const double *row = &DEP_ENVELOPE_AT(e, e->L, i, 0);
+        double xi = x[i] * e->inverse[i];
+        x[i] = xi;
+        for (int k = e->first[i]; k < i; ++k) {
+            x[k] -= row[k] * xi;
+        }
+    }
+}
+
+/* The rows of the same in the same order of operations, SOLVE_CHUNK sides at a time in a local
+   accumulator (a store through x could alias any row of x, which keeps the compiler from
+   holding the sums in registers). */
+#define SOLVE_CHUNK 8
+
 void dep_envelope_solve_block(const dep_envelope *e, int count, const double *b, double *x)
 {
     if (x != b) {
         memcpy(x, b, (size_t)e->n * (size_t)count * sizeof *x);
     }
+    if (count == 1) {
+        solve_one(e, x);
+        return;
+    }
     for (int i = 0; i < e->n; ++i) { /* L y = b */
-        double *xi = x + (size_t)i * count, pivot = DEP_ENVELOPE_AT(e, e->L, i, i);
-        for (int k = e->first[i]; k < i; ++k) {
-            double l = DEP_ENVELOPE_AT(e, e->L, i, k);
-            const double *xk = x + (size_t)k * count;
-            for (int v = 0; v < count; ++v) {
-                xi[v] -= l * xk[v];
+        const double *row = &DEP_ENVELOPE_AT(e, e->L, i, 0);
+        double *xi = x + (size_t)i * count;
+        for (int v0 = 0; v0 < count; v0 += SOLVE_CHUNK) {
+            int width = count - v0 < SOLVE_CHUNK ? count - v0 : SOLVE_CHUNK;
+            double sum[SOLVE_CHUNK];
+            for (int v = 0; v < width; ++v) {
+                sum[v] = xi[v0 + v];
             }
-        }
-        for (int v = 0; v < count; ++v) {
-            xi[v] /= pivot;
+            for (int k = e->first[i]; k < i; ++k) {
+                const double l = row[k], *xk = x + (size_t)k * count + v0;
+                for (int v = 0; v < width; ++v) {
+                    sum[v] -= l * xk[v];
+                }
+            }
+            for (int v = 0; v < width; ++v) {
+                xi[v0 + v] = sum[v] * e->inverse[i];
+            }
         }
     }
     for (int i = e->n - 1; i >= 0; --i) { /* L^T x = y, column by column */
-        double *xi = x + (size_t)i * count, pivot = DEP_ENVELOPE_AT(e, e->L, i, i);
-        for (int v = 0; v < count; ++v) {
-            xi[v] /= pivot;
-        }
-        for (int k = e->first[i]; k < i; ++k) {
-            double l = DEP_ENVELOPE_AT(e, e->L, i, k);
-            double *xk = x + (size_t)k * count;
-            for (int v = 0; v < count; ++v) {
-                xk[v] -= l * xi[v];
+        const double *row = &DEP_ENVELOPE_AT(e, e->L, i, 0);
+        double *xi = x + (size_t)i * count;
+        for (int v0 = 0; v0 < count; v0 += SOLVE_CHUNK) {
+            int width = count - v0 < SOLVE_CHUNK ? count - v0 : SOLVE_CHUNK;
+            double value[SOLVE_CHUNK];
+            for (int v = 0; v < width; ++v) {
+                value[v] = xi[v0 + v] * e->inverse[i];
+                xi[v0 + v] = value[v];
+            }
+            for (int k = e->first[i]; k < i; ++k) {
+                const double l = row[k];
+                double *xk = x + (size_t)k * count + v0;
+                for (int v = 0; v < width; ++v) {
+                    xk[v] -= l * value[v];
+                }
             }
         }
     }

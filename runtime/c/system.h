@@ -43,6 +43,8 @@ typedef struct dep_envelope {
     int n;
     int *first, *offset; /* n, n + 1 */
     double *A, *L;       /* offset[n] each */
+    double *inverse;     /* n: 1 / L_ii (the solves multiply: a division's latency would
+                            set their pace, each row waiting on the one before) */
 } dep_envelope;
 
 #define DEP_ENVELOPE_AT(e, M, i, j) ((M)[(e)->offset[i] + (j) - (e)->first[i]])

@@ -58,7 +58,7 @@ def mass_matrix(p):
     M = numpy.zeros((3,))
     M[0] = p[1]
     M[1] = p[1]
-    M[2] = (1/12)*p[0]**2*p[1]
+    M[2] = (1/12)*(p[0]*p[0])*p[1]
     return M
 
 
@@ -136,7 +136,7 @@ def phi_t(q, t, p):
 def gamma(q, qd, t, p):
     """Right side of Phi_q qdd = gamma, shape (NC,)."""
     gamma = numpy.zeros((2,))
-    x0 = 0.5*p[0]*qd[2]**2
+    x0 = 0.5*p[0]*(qd[2]*qd[2])
     gamma[0] = x0*math.cos(q[2])
     gamma[1] = x0*math.sin(q[2])
     return gamma
@@ -215,7 +215,7 @@ def energy(q, qd, t, p):
     """Kinetic energy and each potential (J), in the order of ENERGIES."""
     E = numpy.zeros((2,))
     x0 = (1/2)*p[1]
-    E[0] = (1/24)*p[0]**2*p[1]*qd[2]**2 + qd[0]**2*x0 + qd[1]**2*x0
+    E[0] = (1/24)*(p[0]*p[0])*p[1]*(qd[2]*qd[2]) + (qd[0]*qd[0])*x0 + (qd[1]*qd[1])*x0
     E[1] = -p[1]*(p[2]*q[0] + p[3]*q[1])
     return E
 
