@@ -345,13 +345,12 @@ static int advance(dep_run *run, double *h)
             run->h_cap = run->h_cap < 1e300 ? run->h_cap * CAP_RELAX : INFINITY;
             double taken = *h;
             double change = fmin(fac, dep_convergence_factor(&run->outcome.reports[0]));
-            if (!(run->stepper.implicit && change >= HOLD_LOW && change <= HOLD_HIGH)) {
-                *h *= change;
-            }
-            if (cut && *h > taken) {
+            int hold = run->stepper.implicit && change >= HOLD_LOW && change <= HOLD_HIGH;
+            *h = hold ? taken : taken * change;
+            if (cut && (hold || *h > taken)) {
                 /* a step cut short to land on t_stop (an output of dep_advance, a table's
                    point) says nothing against the size it was cut from */
-                *h = fmax(*h, proposed);
+                *h = hold ? proposed : fmax(*h, proposed);
                 taken = fmax(taken, proposed);
             }
             return step_budget(run, taken);
