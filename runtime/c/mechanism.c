@@ -75,7 +75,8 @@ void dep_hinge_torques(const dep_system *system, const double *q, const double *
         const dep_hinge_mechanics *h = &system->hinges[i];
         double rate = system->rates[i];
         if (h->has_friction) {
-            tau[i] += dep_friction_torque(h, rate);
+            system->friction[i] = dep_friction_torque(h, rate);
+            tau[i] += system->friction[i];
         }
         if (h->latch_state == DEP_CONTACT) {
             if (!have_angles) {
@@ -94,7 +95,6 @@ void dep_hinge_torques(const dep_system *system, const double *q, const double *
 void dep_hinge_dissipation(const dep_system *system, const double *q, const double *qd,
                            double *power)
 {
-    int n = system->model->nd;
     if (system->n_friction == 0 && system->n_compliant == 0) {
         return;
     }
@@ -102,7 +102,18 @@ void dep_hinge_dissipation(const dep_system *system, const double *q, const doub
     for (int i = 0; i < system->nh; ++i) {
         const dep_hinge_mechanics *h = &system->hinges[i];
         if (h->has_friction) {
-            power[n++] = -dep_friction_torque(h, system->rates[i]) * system->rates[i];
+            system->friction[i] = dep_friction_torque(h, system->rates[i]);
+        }
+    }
+    dep_hinge_power(system, q, power);
+}
+
+void dep_hinge_power(const dep_system *system, const double *q, double *power)
+{
+    int n = system->model->nd;
+    for (int i = 0; i < system->nh; ++i) {
+        if (system->hinges[i].has_friction) {
+            power[n++] = -system->friction[i] * system->rates[i];
         }
     }
     if (system->n_compliant == 0) {

@@ -182,7 +182,11 @@ static void right_side(dep_stepper *stepper, double t, const double *y, double *
     dep_profile_value(&stepper->profile, stepper->rhs_end, t, cs->nc, stepper->rhs_lam);
     dep_cs_jacobian_transpose_times(cs, q, t, stepper->rhs_lam, stepper->jt_lam);
     memcpy(out, qd, (size_t)nq * sizeof *out);
-    dep_system_force(s, q, qd, t, stepper->force);
+    if (s->nd > 0) { /* the work rates too, from the same hinge rates and friction torques */
+        dep_system_force_power(s, q, qd, t, stepper->force, out + 2 * nq);
+    } else {
+        dep_system_force(s, q, qd, t, stepper->force);
+    }
     for (int j = 0; j < nq; ++j) {
         stepper->force[j] -= stepper->jt_lam[j];
     }
@@ -191,7 +195,6 @@ static void right_side(dep_stepper *stepper, double t, const double *y, double *
     } else {
         memcpy(out + nq, stepper->force, (size_t)nq * sizeof *out);
     }
-    dissipation(s, q, qd, t, out + 2 * nq);
 }
 
 void dep_stepper_rhs(void *context, double t, const double *y, double *dy)

@@ -396,6 +396,7 @@ int dep_system_init(dep_system *system, const dep_model *model, const double *p,
     system->angles = dep_doubles(arena, (size_t)nh);
     system->rates = dep_doubles(arena, (size_t)nh);
     system->tau = dep_doubles(arena, (size_t)nh);
+    system->friction = dep_doubles(arena, (size_t)nh);
     system->hinge_jacobian = dep_doubles(arena, (size_t)model->nhnz + 1);
     system->torque_force = dep_doubles(arena, (size_t)model->nq + 1);
     if (arena->failed) {
@@ -459,6 +460,20 @@ void dep_system_dissipation(const dep_system *system, const double *q, const dou
         system->model->dissipation(q, qd, t, system->p, power);
     }
     dep_hinge_dissipation(system, q, qd, power);
+}
+
+void dep_system_force_power(const dep_system *system, const double *q, const double *qd,
+                            double t, double *f, double *power)
+{
+    dep_system_force(system, q, qd, t, f);
+    if (system->model->nd > 0) {
+        system->model->dissipation(q, qd, t, system->p, power);
+    }
+    if (dep_hinge_forcing(system)) { /* dep_system_force left the rates and torques */
+        dep_hinge_power(system, q, power);
+    } else {
+        dep_hinge_dissipation(system, q, qd, power);
+    }
 }
 
 /* Kinetic energy and each potential (ne), J. */

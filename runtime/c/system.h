@@ -108,8 +108,9 @@ typedef struct dep_system {
     struct dep_mechanism *mechanism; /* NULL: no latch, stop or stick-slip (or mechanics off) */
     const char **dissipator_names;   /* nd */
     const char **energy_names;       /* ne */
-    /* scratch: nh, nh, nh, nhnz (at HINGE_JACOBIAN_ROWS/COLS), nq */
-    double *angles, *rates, *tau, *hinge_jacobian, *torque_force;
+    /* scratch: nh, nh, nh, nhnz (at HINGE_JACOBIAN_ROWS/COLS), nq; friction: nh, each
+       friction hinge's torque at `rates` (set with them by dep_hinge_torques) */
+    double *angles, *rates, *tau, *hinge_jacobian, *torque_force, *friction;
 } dep_system;
 
 /* mechanics 0: every hinge free (friction by the regularised law, no latch or stop modes). */
@@ -123,12 +124,17 @@ void dep_hinge_torques(const dep_system *system, const double *q, const double *
                        double *tau);
 void dep_hinge_dissipation(const dep_system *system, const double *q, const double *qd,
                            double *power);
+/* The same from the rates and friction torques dep_hinge_torques left at (q, qd). */
+void dep_hinge_power(const dep_system *system, const double *q, double *power);
 void dep_hinge_energy(const dep_system *system, const double *q, double *energy);
 const char *dep_joint_kind(const dep_system *system, const char *joint);
 void dep_system_force(const dep_system *system, const double *q, const double *qd, double t,
                       double *f);
 void dep_system_dissipation(const dep_system *system, const double *q, const double *qd,
                             double t, double *power);
+/* Both at one state, the hinge rates and friction torques evaluated once. */
+void dep_system_force_power(const dep_system *system, const double *q, const double *qd,
+                            double t, double *f, double *power);
 void dep_system_energy(const dep_system *system, const double *q, const double *qd, double t,
                        double *energy);
 
