@@ -37,6 +37,7 @@ static int lock_patterns(dep_constraints *cs, dep_arena *arena)
 static void refresh_pattern(dep_constraints *cs)
 {
     const dep_model *model = cs->system->model;
+    cs->pattern++;
     int nq = cs->nq, k = 0, *start = cs->row_start, *cols = cs->row_cols;
     for (int i = 0, n = 0; i < model->nc; ++i) { /* PHI_Q_ROWS is sorted row-major */
         start[i] = k;

@@ -31,6 +31,7 @@ typedef struct dep_constraints {
        Jacobian J of the active rows holds exactly these entries, in this order: row i's
        values are J[row_start[i] .. row_start[i + 1]) (DEP_JACOBIAN_SIZE of them at most). */
     int *row_start, *row_cols;
+    long long pattern;         /* changes whenever row_start and row_cols do */
     int *lock_start;           /* nh + 1: hinge h's columns are lock_cols[lock_start[h]..) */
     const int *lock_cols;
 } dep_constraints;
@@ -207,6 +208,7 @@ typedef struct dep_multipliers { /* scratch of the iteration and its Schur-compl
     size_t room;
     int *first, *offset;       /* capacity: row a of S spans columns first[a]..a, from offset[a] */
     dep_envelope envelope;     /* that form: first, offset, S and L */
+    long long envelope_pattern; /* the rows' pattern (cs->pattern) the form was laid out for */
     /* nq + 1, then per coordinate the rows touching it and their entries in J */
     int *column_start, *column_rows, *column_entries;
     double *S, *L, *diag, *MinvJT, *column; /* MinvJT: G J^T by rows, for an explicit S */

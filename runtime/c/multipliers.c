@@ -36,6 +36,7 @@ int dep_multipliers_init(dep_multipliers *mp, const dep_mass *mass,
     mp->capacity = capacity;
     mp->mass = mass;
     mp->schur_id = -1;
+    mp->envelope_pattern = -1;
     mp->arena = arena;
     mp->room = (size_t)EXPLICIT_BELOW * EXPLICIT_BELOW; /* S and L; an envelope may grow them */
     mp->S = dep_doubles(arena, mp->room);
@@ -254,13 +255,17 @@ static void reverse_cuthill_mckee(dep_multipliers *mp, int nc)
     }
 }
 
-/* Forms S from the non-zeros of J: the rows touching each coordinate, each row's envelope
-   from the first row it shares a coordinate with, then S_ab += J_aj J_bj / M_jj. The rows
-   keep their order unless reverse Cuthill-McKee halves the envelope (mp->permuted). */
-static int envelope_schur(dep_multipliers *mp, const double *J, int nc)
+/* The envelope's layout for the active rows' pattern: the rows touching each coordinate, the
+   row order (kept unless reverse Cuthill-McKee halves the envelope, mp->permuted), each row's
+   envelope from the first row it shares a coordinate with. It depends on the pattern only, so
+   it is laid out once per pattern (cs->pattern). */
+static int envelope_layout(dep_multipliers *mp, int nc)
 {
     int nq = mp->nq, *start = mp->column_start, *rows = mp->column_rows, *first = mp->first;
     const int *row_start = mp->cs->row_start, *cols = mp->cs->row_cols;
+    if (mp->envelope_pattern == mp->cs->pattern && mp->envelope.n == nc) {
+        return 1;
+    }
     memset(start, 0, ((size_t)nq + 1) * sizeof *start);
     for (int k = 0; k < row_start[nc]; ++k) {
         start[cols[k] + 1]++;
@@ -304,6 +309,17 @@ static int envelope_schur(dep_multipliers *mp, const double *J, int nc)
         mp->S = mp->envelope.A = S;
         mp->L = mp->envelope.L = L;
         mp->room = room;
+    }
+    mp->envelope_pattern = mp->cs->pattern;
+    return 1;
+}
+
+/* Forms S = J M^-1 J^T in the envelope (S_ab += J_aj J_bj / M_jj). */
+static int envelope_schur(dep_multipliers *mp, const double *J, int nc)
+{
+    int nq = mp->nq, *start = mp->column_start, *rows = mp->column_rows, *rank = mp->rank;
+    if (!envelope_layout(mp, nc)) {
+        return 0;
     }
     memset(mp->S, 0, (size_t)mp->offset[nc] * sizeof *mp->S);
     const double *inverse = mp->mass->inverse_diagonal;
