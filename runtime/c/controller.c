@@ -20,6 +20,7 @@
 #define PI_ORDER_BETA 0.2 /* the Rosenbrock step's, over the error's power of h */
 #define PI_FLOOR 1e-4
 #define RHO_TARGET 0.2 /* wanted contraction rate of the position pass */
+#define NEWTON_DONE 1e-12 /* a change of log fac this small ends integral_factor's Newton */
 
 /* 3-point Gauss-Legendre on [0, 1] (exact for polynomials up to degree 5): the nodes and the
    plain weights. */
@@ -83,18 +84,34 @@ void dep_history_add(dep_history *history, double t, const double *lam)
 
 /* ---- the profile ------------------------------------------------------------------------ */
 
-/* The Lagrange basis at u of the nodes u[0..n-1] and 1 (the end): w[0..n]. */
-static void basis(const double *u, int n, double at, double *w)
+/* The Lagrange basis at `at` of the profile's nodes u[0..n-1] and 1 (the end): w[0..n].
+   Products only: the denominators are the profile's (set_inverse), for a basis evaluated at
+   every force evaluation. */
+static void basis(const dep_profile *profile, double at, double *w)
 {
+    int n = profile->nodes;
     for (int j = 0; j <= n; ++j) {
-        double uj = j < n ? u[j] : 1.0, weight = 1.0;
+        double weight = profile->inverse[j];
         for (int m = 0; m <= n; ++m) {
-            double um = m < n ? u[m] : 1.0;
             if (m != j) {
-                weight *= (at - um) / (uj - um);
+                weight *= at - (m < n ? profile->u[m] : 1.0);
             }
         }
         w[j] = weight;
+    }
+}
+
+static void set_inverse(dep_profile *profile)
+{
+    int n = profile->nodes;
+    for (int j = 0; j <= n; ++j) {
+        double uj = j < n ? profile->u[j] : 1.0, product = 1.0;
+        for (int m = 0; m <= n; ++m) {
+            if (m != j) {
+                product *= uj - (m < n ? profile->u[m] : 1.0);
+            }
+        }
+        profile->inverse[j] = 1.0 / product;
     }
 }
 
@@ -116,10 +133,11 @@ void dep_profile_set(dep_profile *profile, const dep_history *history, double h,
         profile->u[j] = (history->t[k] - t0) / h;
         profile->lam[j] = history->lam[k];
     }
+    set_inverse(profile);
     profile->position = profile->velocity = profile->excursion = 0.0;
     for (int g = 0; g < 3; ++g) {
         double s = NODES[g], product = s - 1.0;
-        basis(profile->u, nodes, s, w);
+        basis(profile, s, w);
         profile->position += PLAIN[g] * (1.0 - s) * w[nodes];
         profile->velocity += PLAIN[g] * w[nodes];
         for (int j = 0; j < nodes; ++j) {
@@ -137,6 +155,7 @@ void dep_profile_hold(dep_profile *profile, double t0, const double *lam)
     profile->nodes = 1;
     profile->u[0] = 0.0;
     profile->lam[0] = lam;
+    set_inverse(profile);
     profile->position = 1.0 / 6.0;
     profile->velocity = 0.5;
     profile->excursion = 1.0 / 12.0;
@@ -148,7 +167,7 @@ void dep_profile_value(const dep_profile *profile, const double *lam_end, double
 {
     double w[DEP_PROFILE_NODES + 1];
     int n = profile->nodes;
-    basis(profile->u, n, (t - profile->t0) / profile->h, w);
+    basis(profile, (t - profile->t0) / profile->h, w);
     for (int i = 0; i < nc; ++i) {
         double sum = w[n] * lam_end[i];
         for (int j = 0; j < n; ++j) {
@@ -161,7 +180,7 @@ void dep_profile_value(const dep_profile *profile, const double *lam_end, double
 double dep_profile_end_weight(const dep_profile *profile, double t)
 {
     double w[DEP_PROFILE_NODES + 1];
-    basis(profile->u, profile->nodes, (t - profile->t0) / profile->h, w);
+    basis(profile, (t - profile->t0) / profile->h, w);
     return w[profile->nodes];
 }
 
@@ -183,7 +202,7 @@ void dep_history_predict(const dep_history *history, const dep_profile *profile,
             }
             coefficients[j] += weight * value;
         }
-        basis(profile->u, nodes, s, w); /* less the profile's own accepted part */
+        basis(profile, s, w); /* less the profile's own accepted part */
         for (int j = 0; j < nodes; ++j) {
             coefficients[n - nodes + j] -= weight * w[j];
         }
@@ -288,9 +307,14 @@ static double integral_factor(const dep_step_errors *e, double high)
     if (e->ode > 0.0) {
         start = fmin(start, pow(SAFETY / e->ode, 1.0 / e->ode_order));
     }
-    double x = log(start);
+    double x = log(start); /* Newton's method: the errors at fac = e^x, two exp a pass */
     for (int k = 0; k < 6; ++k) {
-        x -= excess(e, exp(x)) / slope(e, exp(x));
+        double lam = e->lam * exp(e->lam_order * x), ode = e->ode * exp(e->ode_order * x);
+        double dx = (lam + ode - SAFETY) / (e->lam_order * lam + e->ode_order * ode);
+        x -= dx;
+        if (fabs(dx) < NEWTON_DONE) {
+            break;
+        }
     }
     return exp(x);
 }

@@ -261,6 +261,7 @@ typedef struct dep_profile {
     int nodes;
     double u[DEP_PROFILE_NODES];
     const double *lam[DEP_PROFILE_NODES];
+    double inverse[DEP_PROFILE_NODES + 1]; /* 1 / prod_{m != j} (u_j - u_m), u_nodes = 1 */
     double position, velocity;
     double excursion; /* integral_0^1 (1 - u) |prod_j (u - u_j) (u - 1)| du */
 } dep_profile;
