@@ -10,9 +10,11 @@
  *
  * with T = [[0, I, 0], [-M^-1 K, -M^-1 D, 0], [0, 0, 0]], K and D the stiff forces' stiffness
  * and damping (the model's `stiffness`: the beams' elasticity and damping, hinge springs and
- * dampers, cables; evaluated once per step). Its velocity
+ * dampers, cables; evaluated at each step's start). Its velocity
  * block is W kv = M r_v - gamma h K r_q with W = M + gamma h D + gamma^2 h^2 K, symmetric
- * positive definite and banded: one envelope factorisation per step, no M^-1 anywhere.
+ * positive definite and banded: an envelope factorisation, no M^-1 anywhere. Since any T
+ * keeps the order, W (with the K and D it was made from) serves every step of its size while
+ * K and D stay within DEP_JACOBIAN_DRIFT of it (dep_implicit_prepare).
  * The step's error is sum (b_i - bhat_i) k_i (the embedded order-2 solution), filtered by
  * (I - gamma h T)^-1 as in Hairer & Wanner's RADAU5 (Solving ODEs II, IV.8): modes T makes
  * stiff (omega h >> 1) are damped by the L-stable method and leave the estimate, so an
