@@ -1,7 +1,7 @@
-"""References for the two-link flexible pendulum that share the mesh with depsim's linearly
-implicit step but not its method.
+"""References for the two-link flexible pendulum: on the mesh of a depsim run but not by its
+linearly implicit step, or on a finer mesh.
 
-    .venv/bin/python bench/beam_reference.py --elements 16 [--solver explicit|radau]
+    .venv/bin/python bench/beam_reference.py --elements 16 [--solver explicit|radau|implicit]
                  [--tol 1e-8] [--t-end 5] [--out bench/results/two_link_flex_ref16.npz]
 
 * `explicit`: depsim's own multiplier iteration with DOPRI 5(4) throughout (stepping
@@ -11,6 +11,10 @@ implicit step but not its method.
   tests/references/direct.py solves the augmented index-1 system with Baumgarte
   stabilisation at every evaluation and scipy's Radau IIA (implicit, order 5, its own
   finite-difference Jacobian) integrates it (about 90 s at 2 elements; hours at 16).
+* `implicit`: depsim's linearly implicit step, for a mesh finer than any run it is compared
+  with: the mesh-converged reference (32 elements at tol 1e-9, about 90 s). Run it at two
+  tolerances to see that it is converged in time (at 32 elements, tol 1e-8 and 1e-9 agree
+  to 9.3e-9 rad in chord2 and 2.5e-7 m in tip2 over the 5 s).
 
 bench/bench_beams.py measures depsim against these files; the two agree at 2 elements to
 1.3e-7 rad in chord2 and 6e-7 m in tip2 (tol 1e-8 and 1e-9), which is how we know each is
@@ -43,10 +47,11 @@ RATE_FACTOR = 1e4
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--elements", type=int, default=16)
-    parser.add_argument("--solver", choices=("explicit", "radau"), default="explicit")
+    parser.add_argument("--solver", choices=("explicit", "radau", "implicit"),
+                        default="explicit")
     parser.add_argument("--tol", type=float, default=1e-8)
     parser.add_argument("--t-end", type=float, default=5.0)
-    parser.add_argument("--dt-out", type=float, default=0.005)
+    parser.add_argument("--dt-out", type=float, default=5e-4)  # bench_beams.py's
     parser.add_argument("--out", type=Path)
     args = parser.parse_args()
     n = args.elements
@@ -54,9 +59,9 @@ def main() -> None:
     model = depsim.load(ROOT / "examples" / "two_link_flex.dep").with_elements(
         {"link1": n, "link2": n})
     start = time.perf_counter()
-    if args.solver == "explicit":
+    if args.solver in ("explicit", "implicit"):
         result = model.compile(target="c").run(t_end=args.t_end, dt_out=args.dt_out,
-                                               tol=args.tol, stepping="explicit",
+                                               tol=args.tol, stepping=args.solver,
                                                max_steps=1e9)
         times, chord2, tip2 = result.times, result.output("chord2"), result.output("tip2")
         steps, evaluations = result.stats.accepted_steps, result.stats.rhs_evaluations
