@@ -142,8 +142,7 @@ int dep_implicit_init(dep_implicit *im, const dep_system *system, int ny, dep_ar
    within DEP_JACOBIAN_DRIFT of its own, else W anew from them (im->id changes); 0 when W is
    not positive definite. */
 int dep_implicit_prepare(dep_implicit *im, const double *q, double h);
-/* The next dep_implicit_prepare evaluates K and D afresh (after an event, new inputs, or K
-   and D used for something else). */
+/* The next dep_implicit_prepare makes W anew (after an event or new inputs). */
 void dep_implicit_forget(dep_implicit *im);
 /* One step from (t0, y0), g0 = g(t0, y0) already in im->g0; four evaluations of g less one. */
 void dep_rosenbrock_step(dep_implicit *im, dep_rk_step *rk, dep_force_function g,

@@ -316,14 +316,13 @@ double dep_implicit_fastest(dep_implicit *im, const double *q)
     const dep_system *s = im->system;
     int nq = im->nq;
     double *x = im->arg, *y = im->g, rate = 0.0;
-    dep_implicit_forget(im); /* K and D change under W */
-    s->model->stiffness(q, s->p, im->K, im->D);
+    s->model->stiffness(q, s->p, im->K_now, im->D_now); /* W's own K and D stay as they are */
     for (int j = 0; j < nq; ++j) {
         x[j] = (j % 2 ? 1.0 : -1.0) * (1.0 + 0.1 * (j % 7)); /* rich in the fast modes */
     }
     for (int k = 0; k < POWER_ITERATIONS; ++k) { /* y = M^-1 K x, rate = x.K x / x.M x */
         memset(im->rhs, 0, (size_t)nq * sizeof *im->rhs);
-        pattern_subtract(im, im->K, 1, x, im->rhs);
+        pattern_subtract(im, im->K_now, 1, x, im->rhs);
         double kx = 0.0, norm = 0.0;
         for (int j = 0; j < nq; ++j) {
             im->rhs[j] = -im->rhs[j];
