@@ -4,7 +4,7 @@ side in one run, and the throughput of a Monte Carlo study.
     .venv/bin/python bench/bench_intelsat.py                        # tol 1e-8, 7 runs each
     .venv/bin/python bench/bench_intelsat.py --tol 1e-8 --tol 3e-8 --repeat 11 --runs 2000
 
-The hand-written solver (bench/intelsat_hand.c) integrates the four hinge angles with
+The hand-written solver (tests/references/intelsat_hand.c, also the test suite's reference) integrates the four hinge angles with
 Dormand-Prince 5(4) and the same forces, latches included: the minimal-coordinate baseline.
 Both write theta1..4 every 0.05 s; the error is the largest difference from a converged
 reference (the hand solver at tol 1e-13, which agrees with itself at 1e-12 to ~1e-11 rad).
@@ -36,9 +36,8 @@ SAMPLES = ["h1.friction=normal(0.68, 0.068)", "h2.friction=normal(0.64, 0.064)",
 def build(folder: Path) -> tuple[Path, Path]:
     """The hand solver and depsim's program for examples/intelsat5.dep."""
     hand = folder / "intelsat_hand"
-    subprocess.run(["cc", "-O2", "-std=c99", "-o", str(hand), str(ROOT / "bench" /
-                                                                    "intelsat_hand.c"), "-lm"],
-                   check=True)
+    subprocess.run(["cc", "-O2", "-std=c99", "-o", str(hand),
+                    str(ROOT / "tests" / "references" / "intelsat_hand.c"), "-lm"], check=True)
     subprocess.run([*DEPSIM, "compile", str(ROOT / "examples" / "intelsat5.dep"), "--target",
                     "c", "-o", str(folder / "depsim")], check=True, capture_output=True)
     subprocess.run(["make", "-s", "-C", str(folder / "depsim"), "intelsat5"], check=True)

@@ -134,7 +134,7 @@ void dep_profile_set(dep_profile *profile, const dep_history *history, double h,
         profile->lam[j] = history->lam[k];
     }
     set_inverse(profile);
-    profile->position = profile->velocity = profile->excursion = 0.0;
+    profile->position = profile->velocity = profile->excursion = profile->drift = 0.0;
     for (int g = 0; g < 3; ++g) {
         double s = NODES[g], product = s - 1.0;
         basis(profile, s, w);
@@ -144,6 +144,7 @@ void dep_profile_set(dep_profile *profile, const dep_history *history, double h,
             product *= s - profile->u[j];
         }
         profile->excursion += PLAIN[g] * (1.0 - s) * fabs(product);
+        profile->drift += PLAIN[g] * fabs(product);
     }
 }
 
@@ -159,6 +160,7 @@ void dep_profile_hold(dep_profile *profile, double t0, const double *lam)
     profile->position = 1.0 / 6.0;
     profile->velocity = 0.5;
     profile->excursion = 1.0 / 12.0;
+    profile->drift = 1.0 / 6.0;
 }
 
 /* lambda(t) (nc) of the profile with end value lam_end. */
@@ -218,99 +220,98 @@ void dep_history_predict(const dep_history *history, const dep_profile *profile,
 
 /* ---- errors and the step factor ---------------------------------------------------------- */
 
-/* The weighted size of h^2 c G J1^T d (nq scratch: 2 nq). */
-static double position_effect(const double *J1, const double *d, int nq, double factor,
-                              const dep_multipliers *mp, const double *scale_q, double *scratch)
+/* The divided difference D (n, into d) of a history's accepted values and the step's `end`
+   of the order the profile misses: the profile's interpolation error is
+   e(t) = D prod_j (t - t_j) (t - t_end) over the step, the t_j its nodes (for a linear
+   profile D = lambda'' / 2). 0 (d untouched) right after a (re)start, with one accepted value
+   (or fewer than the profile's nodes and one). scratch: n (nodes + 2). */
+int dep_divided_difference(const dep_profile *profile, const dep_history *history,
+                           const double *end, double *d, double *scratch)
 {
-    double *column = scratch, *excursion = scratch + nq;
-    dep_cs_transpose_times(mp->cs, J1, d, column);
-    dep_multipliers_apply(mp, column, excursion);
-    for (int j = 0; j < nq; ++j) {
-        excursion[j] = factor * excursion[j];
-    }
-    return dep_rms(excursion, scale_q, nq);
-}
-
-/* err_lam: the position excursion the profile's interpolation error causes inside the step,
-   h^2 integral (1 - s) |e(s)| ds G J1^T (G: the position pass's, M^-1 for DOPRI) with e(t) = D prod_j (t - t_j), D the divided
-   difference of the accepted multipliers and lam1 of the order the profile misses (for a
-   linear profile: (h^4 / 24) M^-1 J1^T lambda''). Right after a (re)start, with one accepted
-   multiplier, from the end values instead: the linear profile's end value that the position
-   pass found undercuts the true lambda_{i+1} (lam1, from the acceleration pass) by
-   (h^2 / 4) lambda'', so the excursion is (h^2 / 6) M^-1 J1^T (lam1 - lam_position).
-   *order: its power of h. scratch: nc (n + 1) + 2 nq. */
-double dep_interpolation_error(const dep_profile *profile, const dep_history *history,
-                               const double *lam1, const double *lam_position,
-                               const double *J1, const dep_multipliers *mp,
-                               const double *scale_q, int nq, double *scratch, int *order)
-{
-    int nc = history->nc, used = profile->nodes + 1, first = history->count - used;
-    int points = used + 1; /* the profile's nodes, the point before them, and lam1 */
-    *order = profile->nodes + 3;
-    if (nc == 0) {
-        return 0.0;
-    }
+    int n = history->nc, used = profile->nodes + 1, first = history->count - used;
+    int points = used + 1; /* the profile's nodes, the point before them, and the end */
     if (history->count < 2 || first < 0) {
-        for (int i = 0; i < nc; ++i) {
-            scratch[i] = lam1[i] - lam_position[i];
-        }
-        return position_effect(J1, scratch, nq, profile->h * profile->h / 6.0, mp,
-                               scale_q, scratch + nc);
+        return 0;
     }
-    double times[DEP_HISTORY + 1], *table = scratch, *column = scratch + (size_t)nc * points;
+    double times[DEP_HISTORY + 1], *table = scratch;
     for (int k = 0; k < used; ++k) {
         times[k] = history->t[first + k];
-        memcpy(table + (size_t)k * nc, history->lam[first + k], (size_t)nc * sizeof *table);
+        memcpy(table + (size_t)k * n, history->lam[first + k], (size_t)n * sizeof *table);
     }
     times[used] = profile->t0 + profile->h;
-    memcpy(table + (size_t)used * nc, lam1, (size_t)nc * sizeof *table);
+    memcpy(table + (size_t)used * n, end, (size_t)n * sizeof *table);
     for (int level = 1; level < points; ++level) { /* divided differences, in place */
         for (int k = points - 1; k >= level; --k) {
             double span = times[k] - times[k - level];
-            for (int i = 0; i < nc; ++i) {
-                table[(size_t)k * nc + i] = (table[(size_t)k * nc + i]
-                                             - table[(size_t)(k - 1) * nc + i]) / span;
+            for (int i = 0; i < n; ++i) {
+                table[(size_t)k * n + i] = (table[(size_t)k * n + i]
+                                            - table[(size_t)(k - 1) * n + i]) / span;
             }
         }
     }
-    const double *top = table + (size_t)(points - 1) * nc;
-    return position_effect(J1, top, nq, pow(profile->h, *order) * profile->excursion, mp,
-                           scale_q, column);
+    memcpy(d, table + (size_t)(points - 1) * n, (size_t)n * sizeof *d);
+    return 1;
 }
 
 /* The step errors and their powers of h: the ODE method's and the multipliers'
    interpolation (dep_step_errors). */
+/* The step's errors and their powers of h, as terms (the friction's only when it has one). */
+static int terms(const dep_step_errors *e, double size[3], int order[3])
+{
+    size[0] = e->ode;
+    order[0] = e->ode_order;
+    size[1] = e->lam;
+    order[1] = e->lam_order;
+    size[2] = e->friction;
+    order[2] = e->friction_order;
+    return e->friction_order > 0 ? 3 : 2;
+}
+
 static double excess(const dep_step_errors *e, double fac)
 {
-    return e->lam * pow(fac, e->lam_order) + e->ode * pow(fac, e->ode_order) - SAFETY;
+    double size[3], sum = -SAFETY;
+    int order[3], n = terms(e, size, order);
+    for (int k = 0; k < n; ++k) {
+        sum += size[k] * pow(fac, order[k]);
+    }
+    return sum;
 }
 
 static double slope(const dep_step_errors *e, double fac)
 {
-    return e->lam_order * e->lam * pow(fac, e->lam_order)
-           + e->ode_order * e->ode * pow(fac, e->ode_order);
+    double size[3], sum = 0.0;
+    int order[3], n = terms(e, size, order);
+    for (int k = 0; k < n; ++k) {
+        sum += order[k] * size[k] * pow(fac, order[k]);
+    }
+    return sum;
 }
 
 /* The fac solving excess(fac) = 0 (Newton's method in log fac), within [FAC_MIN, high]. */
 static double integral_factor(const dep_step_errors *e, double high)
 {
-    double start = INFINITY;
+    double start = INFINITY, size[3];
+    int order[3], n = terms(e, size, order);
     if (excess(e, high) <= 0.0) {
         return high;
     }
     if (excess(e, FAC_MIN) >= 0.0) {
         return FAC_MIN;
     }
-    if (e->lam > 0.0) {
-        start = fmin(start, pow(SAFETY / e->lam, 1.0 / e->lam_order));
+    for (int k = 0; k < n; ++k) {
+        if (size[k] > 0.0) {
+            start = fmin(start, pow(SAFETY / size[k], 1.0 / order[k]));
+        }
     }
-    if (e->ode > 0.0) {
-        start = fmin(start, pow(SAFETY / e->ode, 1.0 / e->ode_order));
-    }
-    double x = log(start); /* Newton's method: the errors at fac = e^x, two exp a pass */
-    for (int k = 0; k < 6; ++k) {
-        double lam = e->lam * exp(e->lam_order * x), ode = e->ode * exp(e->ode_order * x);
-        double dx = (lam + ode - SAFETY) / (e->lam_order * lam + e->ode_order * ode);
+    double x = log(start); /* Newton's method: the errors at fac = e^x, an exp a term a pass */
+    for (int pass = 0; pass < 6; ++pass) {
+        double sum = -SAFETY, derivative = 0.0;
+        for (int k = 0; k < n; ++k) {
+            double term = size[k] * exp(order[k] * x);
+            sum += term;
+            derivative += order[k] * term;
+        }
+        double dx = sum / derivative;
         x -= dx;
         if (fabs(dx) < NEWTON_DONE) {
             break;
@@ -346,7 +347,7 @@ double dep_step_factor(const dep_step_errors *errors, double err_previous, int a
 
 double dep_step_error(const dep_step_errors *errors)
 {
-    return errors->ode + errors->lam;
+    return errors->ode + errors->lam + errors->friction;
 }
 
 /* The largest fac the position pass's contraction rate rho allows (rho ~ (omega h)^2). */

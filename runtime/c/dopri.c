@@ -102,28 +102,48 @@ void dep_dopri_step(dep_rk_step *rk, dep_rhs_function rhs, void *context, double
    (DenseStep, 4th order), or the cubic Hermite interpolant of a Rosenbrock step's ends. */
 void dep_dense_components(const dep_rk_step *rk, double t, int first, int count, double *out)
 {
+    dep_dense_points(rk, 1, &t, first, count, out);
+}
+
+void dep_dense_points(const dep_rk_step *rk, int points, const double *times, int first,
+                      int count, double *out)
+{
     int n = rk->n;
-    double x = (t - rk->t0) / rk->h;
     if (rk->method == DEP_ROSENBROCK) {
-        double h00 = (1 + 2 * x) * (1 - x) * (1 - x), h10 = x * (1 - x) * (1 - x);
-        double h01 = x * x * (3 - 2 * x), h11 = x * x * (x - 1);
-        for (int j = first; j < first + count; ++j) {
-            out[j - first] = h00 * rk->y0[j] + h01 * rk->y1[j]
-                             + rk->h * (h10 * rk->K[j] + h11 * rk->K[6 * (size_t)n + j]);
+        for (int p = 0; p < points; ++p) {
+            double x = (times[p] - rk->t0) / rk->h;
+            double h00 = (1 + 2 * x) * (1 - x) * (1 - x), h10 = x * (1 - x) * (1 - x);
+            double h01 = x * x * (3 - 2 * x), h11 = x * x * (x - 1);
+            for (int j = first; j < first + count; ++j) {
+                out[(size_t)p * count + j - first] = h00 * rk->y0[j] + h01 * rk->y1[j]
+                    + rk->h * (h10 * rk->K[j] + h11 * rk->K[6 * (size_t)n + j]);
+            }
         }
         return;
     }
-    double powers[4] = {x, x * x, pow(x, 3), pow(x, 4)};
+    double powers[DEP_DENSE_POINTS][4];
+    for (int p = 0; p < points; ++p) {
+        double x = (times[p] - rk->t0) / rk->h;
+        powers[p][0] = x;
+        powers[p][1] = x * x;
+        powers[p][2] = x * x * x;
+        powers[p][3] = (x * x) * (x * x);
+    }
     for (int j = first; j < first + count; ++j) {
-        double sum = 0.0;
+        double Q[4]; /* (K^T P)[j][c] */
         for (int c = 0; c < 4; ++c) {
-            double Q = 0.0; /* (K^T P)[j][c] */
+            Q[c] = 0.0;
             for (int s = 0; s < 7; ++s) {
-                Q += rk->K[s * n + j] * P[s][c];
+                Q[c] += rk->K[s * n + j] * P[s][c];
             }
-            sum += Q * powers[c];
         }
-        out[j - first] = rk->y0[j] + rk->h * sum;
+        for (int p = 0; p < points; ++p) {
+            double sum = 0.0;
+            for (int c = 0; c < 4; ++c) {
+                sum += Q[c] * powers[p][c];
+            }
+            out[(size_t)p * count + j - first] = rk->y0[j] + rk->h * sum;
+        }
     }
 }
 

@@ -143,11 +143,7 @@ static int retake(dep_run *run, const dep_event *event, double *t_event, const d
     for (int attempt = 0; attempt <= REFINE_EVENT; ++attempt) {
         double h = *t_event - prior->t, shift;
         dep_failure failure;
-        dep_profile profile;
-        dep_profile_set(&profile, &run->history, h, run->profile_nodes);
-        dep_history_predict(&run->history, &profile, run->predicted);
-        int status = dep_step(&run->stepper, prior, &profile, run->predicted, &run->fired,
-                              &failure);
+        int status = dep_run_step(run, h, &run->fired, &failure);
         if (status == DEP_PASS_FAILED) {
             return dep_run_pass_error(run, &failure, *t_event);
         }
@@ -279,6 +275,7 @@ int dep_run_after_step(dep_run *run, int *stop)
         memcpy(run->prior.qdd, run->state.qdd, (size_t)run->nq * sizeof(double));
         dep_state_copy(&run->state, new, run->nq, run->cs.nc, run->nd);
         dep_history_add(&run->history, new->t, new->lam);
+        dep_history_add(&run->friction, new->t, run->outcome.friction);
         dep_run_observe_loads(run, &run->state);
         return DEP_OK;
     }

@@ -35,6 +35,10 @@
    factorisation and the unit responses serve many steps (rosenbrock.c, stepper.c). */
 #define HOLD_LOW 1.0
 #define HOLD_HIGH 1.2
+/* The friction torques' profile through the accepted ones is stable (as an Adams-Moulton
+   method's) while h times the fastest rate c / I their damping c gives the mechanism stays
+   below about 3: this near it, friction holds the step (docs/method.md, 9). */
+#define FRICTION_BOUND 2.0
 #define GRIND_FACTOR 100 /* a run whose steps would pass max_steps that many times over... */
 #define GRIND_STEPS 1000 /* ...for that many steps in a row stops */
 #define CAP_RELAX 1.2
@@ -47,7 +51,8 @@ int dep_run_pass_error(dep_run *run, const dep_failure *failure, double t)
     char joint[DEP_NAME_MAX + 8], what[400], hint[400];
     if (failure->row < 0) { /* not a constraint row: the step itself */
         return dep_solver_error(run->error, 1, t, dep_stage_names[failure->stage], NULL, NULL,
-                                0, 0.0, failure->reason, "the state may no longer be finite; "
+                                0, 0.0, failure->reason, failure->hint[0] != '\0'
+                                ? failure->hint : "the state may no longer be finite; "
                                 "check the beams' properties, or try a tighter tol");
     }
     dep_cs_describe(&run->cs, failure->row, joint, sizeof joint);
@@ -94,6 +99,9 @@ int dep_run_restart(dep_run *run, double t, const double *q, const double *qd,
     }
     dep_tally_observe(&run->tally, &report);
     dep_history_reset(&run->history, t, s->lam, run->cs.nc);
+    dep_friction_law(&run->system, s->q, s->qd, run->friction_predicted);
+    dep_history_reset(&run->friction, t, run->friction_predicted, run->system.nh);
+    run->friction_steps = 0;
     run->prior.valid = 0;
     return DEP_OK;
 }
@@ -156,30 +164,42 @@ static double first_step(dep_run *run)
                             run->t_stop - s->t, run->scratch);
 }
 
+/* v (nq, in place) less what the pass's correction at J moves along the rows:
+   v - G J^T S^-1 J v with S = J G J^T, G the multipliers' (M^-1: the M-orthogonal projection
+   onto the tangent space); 0 (v as it was) where S is singular. scratch: 2 nc + 2 nq. */
+static int tangential(dep_run *run, const double *J, long long J_id, double *v, double *scratch)
+{
+    int nq = run->nq, nc = run->cs.nc;
+    double *Jv = scratch, *mu = Jv + nc, *column = mu + nc, *solved = column + nq;
+    if (nc == 0) {
+        return 1;
+    }
+    dep_cs_times(&run->cs, J, v, Jv);
+    if (!dep_schur_solve(&run->stepper.mp, J, J_id, nc, Jv, mu)) {
+        return 0;
+    }
+    dep_cs_transpose_times(&run->cs, J, mu, column);
+    dep_multipliers_apply(&run->stepper.mp, column, solved);
+    for (int j = 0; j < nq; ++j) {
+        v[j] -= solved[j];
+    }
+    return 1;
+}
+
 /* The ODE method's error estimate less what the passes remove: its position and velocity
    parts projected onto the tangent space of the constraints at the step end along what the
-   pass's correction moves, e - G J^T S^-1 J e with S = J G J^T (G = M^-1 for DOPRI, the
-   M-orthogonal projection; the Rosenbrock step's responses otherwise; docs/method.md, 4).
-   Into run->tangent. */
+   pass's correction moves (tangential; G = M^-1 for DOPRI, the Rosenbrock step's responses
+   otherwise; docs/method.md, 4). Into run->tangent. */
 static void tangential_error(dep_run *run, const dep_outcome *outcome)
 {
     const dep_rk_step *rk = outcome->rk;
     dep_stepper *stepper = &run->stepper;
-    int nq = run->nq, nc = run->cs.nc, solved_all = 1;
-    double *Je = run->normal, *mu = Je + nc, *column = mu + nc, *solved = column + nq;
+    int nq = run->nq, solved_all = 1;
     memcpy(run->tangent, rk->error, (size_t)run->ny * sizeof *run->tangent);
-    for (int half = 0; half < 2 && nc > 0 && solved_all; ++half) {
-        double *e = run->tangent + (size_t)half * (size_t)nq;
+    for (int half = 0; half < 2 && solved_all; ++half) {
         dep_stepper_use_mobility(stepper, half == 0 ? DEP_POSITION : DEP_VELOCITY);
-        dep_cs_times(&run->cs, outcome->J1, e, Je);
-        solved_all = dep_schur_solve(&stepper->mp, outcome->J1, outcome->J1_id, nc, Je, mu);
-        if (solved_all) {
-            dep_cs_transpose_times(&run->cs, outcome->J1, mu, column);
-            dep_multipliers_apply(&stepper->mp, column, solved);
-            for (int j = 0; j < nq; ++j) {
-                e[j] -= solved[j];
-            }
-        }
+        solved_all = tangential(run, outcome->J1, outcome->J1_id,
+                                run->tangent + (size_t)half * (size_t)nq, run->normal);
     }
     dep_stepper_use_mobility(stepper, DEP_ACCELERATION);
     if (!solved_all) { /* a singular S: measure the whole error */
@@ -187,11 +207,95 @@ static void tangential_error(dep_run *run, const dep_outcome *outcome)
     }
 }
 
+static const double DEFECT_POINTS[3] = {0.25, 0.5, 0.75};
+
+/* The interpolation errors inside the step (docs/method.md, 4), weighted (1: at tolerance).
+   e->lam: the position excursion h^2 integral (1 - s) |e(s)| ds G Phi_q^T D that the
+   multipliers' profile error e(t) = D prod_j (t - t_j) causes (D: dep_divided_difference),
+   which the passes correct at the step's end. Right after a (re)start, with one accepted
+   point, the linear profile's end value that the position pass found undercuts the true
+   lambda_{i+1} (lam1, from the acceleration pass) by (h^2 / 4) lambda'', so the excursion is
+   (h^2 / 6) G Phi_q^T (lam1 - lam_position).
+   e->friction, when the step prescribed the friction torques: what their profile's error
+   e(t) = D prod_j (t - t_j) (t - t_end) leaves in the end state after the passes, the
+   position and velocity moves h^2 integral (1 - s) |e(s)| ds and h integral |e(s)| ds times
+   Mc^-1 J_h^T D (Mc^-1: M^-1 along the tangent space); friction moves the mechanism. D is
+   measured, not extrapolated: the friction law on the step's own trajectory (its dense
+   output) less the profile, at DEFECT_POINTS, the largest. It sees a friction's turn that
+   starts inside the step, which the accepted torques cannot foretell. */
+static void interpolation_errors(dep_run *run, const dep_outcome *outcome,
+                                 const double *scale, dep_step_errors *e)
+{
+    const dep_system *system = &run->system;
+    const dep_state *new = &outcome->state, *start = &run->state;
+    const dep_profile *profile = &outcome->profile, *friction = &outcome->friction_profile;
+    int nq = run->nq, nc = run->cs.nc, nh = system->nh, nodes = profile->nodes;
+    double h = profile->h, *table = run->scratch, *d = run->normal;
+    double *column = d + 2 * nc, *excursion = column + nq, *move = excursion + nq;
+    double *projection = move + 2 * nq;
+    e->lam_order = nodes + 3;
+    e->lam = e->friction = 0.0;
+    e->friction_order = 0;
+    if (nc > 0) {
+        if (dep_divided_difference(profile, &run->history, new->lam, d, table)) {
+            double factor = pow(h, nodes + 3) * profile->excursion;
+            for (int i = 0; i < nc; ++i) {
+                d[i] *= factor;
+            }
+        } else {
+            for (int i = 0; i < nc; ++i) {
+                d[i] = h * h / 6.0 * (new->lam[i] - outcome->lam_position[i]);
+            }
+        }
+        dep_cs_transpose_times(&run->cs, outcome->J1, d, column);
+        dep_multipliers_apply(&run->stepper.mp, column, excursion);
+        e->lam = dep_rms(excursion, scale, nq) * sqrt((double)nq / run->ny);
+    }
+    if (!outcome->prescribed) {
+        return;
+    }
+    double *D = run->friction_d, *law = run->friction_table, *prescribed = law + nh;
+    double hn = pow(h, friction->nodes + 1);
+    memset(D, 0, (size_t)nh * sizeof *D);
+    double times[3], *y = run->tangent; /* 3 x 2 nq: (q, qd) at each time */
+    for (int k = 0; k < 3; ++k) {
+        times[k] = start->t + DEFECT_POINTS[k] * h;
+    }
+    dep_dense_points(outcome->rk, 3, times, 0, 2 * nq, y);
+    for (int k = 0; k < 3; ++k) { /* the law along the step's trajectory against the profile */
+        double u = DEFECT_POINTS[k], shape = u - 1.0;
+        const double *q = y + (size_t)k * 2 * nq;
+        for (int j = 0; j < friction->nodes; ++j) {
+            shape *= u - friction->u[j];
+        }
+        dep_friction_law(system, q, q + nq, law);
+        dep_profile_value(friction, outcome->friction, times[k], nh, prescribed);
+        for (int i = 0; i < nh; ++i) {
+            double d = (law[i] - prescribed[i]) / (hn * shape);
+            D[i] = fabs(d) > fabs(D[i]) ? d : D[i];
+        }
+    }
+    system->model->hinge_jacobian(new->q, system->p, system->hinge_jacobian);
+    dep_hinge_transpose_times(system, system->hinge_jacobian, D, column);
+    dep_mass_solve(&system->mass, column, excursion);
+    dep_stepper_use_mobility(&run->stepper, DEP_ACCELERATION);
+    tangential(run, outcome->J1, outcome->J1_id, excursion, projection);
+    dep_stepper_use_mobility(&run->stepper, DEP_POSITION);
+    double position = pow(h, friction->nodes + 3) * friction->excursion;
+    double velocity = pow(h, friction->nodes + 2) * friction->drift;
+    for (int j = 0; j < nq; ++j) {
+        move[j] = position * excursion[j];
+        move[nq + j] = velocity * excursion[j];
+    }
+    e->friction = dep_rms(move, scale, 2 * nq) * sqrt(2.0 * nq / run->ny);
+    e->friction_order = friction->nodes + 2;
+}
+
 /* The step's errors in tolerance units (1 = at tolerance; controller.c). */
 static void step_errors(dep_run *run, const dep_outcome *outcome, dep_step_errors *e)
 {
     const dep_rk_step *rk = outcome->rk;
-    double *scale = run->y, *scratch = run->scratch;
+    double *scale = run->y;
     int nq = run->nq;
     dep_weights(rk->y0, rk->y1, run->ny, run->settings.tol, scale);
     tangential_error(run, outcome);
@@ -207,14 +311,11 @@ static void step_errors(dep_run *run, const dep_outcome *outcome, dep_step_error
     }
     e->ode_order = rk->order;
     dep_stepper_use_mobility(&run->stepper, DEP_POSITION);
-    e->lam = dep_interpolation_error(&outcome->profile, &run->history, outcome->state.lam,
-                                     outcome->lam_position, outcome->J1, &run->stepper.mp,
-                                     scale, nq, scratch, &e->lam_order)
-             * sqrt((double)nq / run->ny);
+    interpolation_errors(run, outcome, scale, e);
     dep_stepper_use_mobility(&run->stepper, DEP_ACCELERATION);
-    if (!isfinite(e->ode + e->lam)) {
+    if (!isfinite(e->ode + e->lam + e->friction)) {
         e->ode = INFINITY;
-        e->lam = 0.0;
+        e->lam = e->friction = 0.0;
     }
 }
 
@@ -237,8 +338,8 @@ static const char *moving_most(const dep_run *run, const double *qd)
    DOPRI's stability bound (Hairer's test, STIFF_STEPS steps with h |lambda| > STIFF_BOUND)
    goes on with the linearly implicit step (rosenbrock.c, docs/method.md, 10). Otherwise a run
    stops rather than grind when its steps would pass max_steps: at once when a stiff mode
-   holds the step at the stability bound and the steps left at this size would pass the
-   limit; when the steps left at this size would pass it GRIND_FACTOR times over for
+   holds the step at the stability bound (DOPRI's, or the prescribed friction's:
+   FRICTION_BOUND) and the steps left at this size would pass the limit; when the steps left at this size would pass it GRIND_FACTOR times over for
    GRIND_STEPS steps in a row; and when the limit is reached. */
 static int step_budget(dep_run *run, double h)
 {
@@ -271,13 +372,28 @@ static int step_budget(dep_run *run, double h)
             run->stiff_steps = 0;
         }
     }
+    const dep_outcome *o = &run->outcome;
+    int friction = o->prescribed && o->friction_hinge >= 0
+                   && h * o->friction_rate > FRICTION_BOUND;
+    run->friction_steps = friction ? run->friction_steps + 1 : 0;
     run->grind_steps = taken + left > GRIND_FACTOR * limit ? run->grind_steps + 1 : 0;
-    int stiff = run->stiff_steps >= STIFF_STEPS && taken + left > limit;
+    friction = run->friction_steps >= STIFF_STEPS && taken + left > limit;
+    int stiff = friction || (run->stiff_steps >= STIFF_STEPS && taken + left > limit);
     if (!stiff && run->grind_steps < GRIND_STEPS && !(taken >= limit && span > run->h_min)) {
         return DEP_OK;
     }
     char what[512], hint[300];
-    if (stiff) {
+    if (friction) {
+        const dep_hinge_mechanics *hinge = &run->system.hinges[o->friction_hinge];
+        snprintf(what, sizeof what, "the model is stiff here: hinge %s's friction damps its "
+                 "motion at a rate of about %.3g 1/s (friction / slip_rate = %.3g N m s/rad), "
+                 "which holds the step at %.3g s; the %.4g s left would take about %.3g more "
+                 "steps, over max_steps = %.0f", hinge->name, o->friction_rate,
+                 hinge->kinetic / hinge->slip_rate, h, span, left, limit);
+        snprintf(hint, sizeof hint, "a larger slip_rate on %s (the regularised friction law's "
+                 "width) softens it; or raise max_steps (--max-steps) to run it as it is",
+                 hinge->name);
+    } else if (stiff) {
         double rate = rk->stiffness / h;
         snprintf(what, sizeof what, "the model is stiff here: a mode of rate about %.3g 1/s "
                  "(time scale %.3g s), moving %s most, holds the explicit step at %.3g s; the "
@@ -302,6 +418,22 @@ static int step_budget(dep_run *run, double h)
     return dep_solver_error(run->error, 1, s->t, "step size", NULL, NULL, 0, 0.0, what, hint);
 }
 
+/* A step of size h from run->state into outcome, the profiles through the histories. */
+int dep_run_step(dep_run *run, double h, dep_outcome *outcome, dep_failure *failure)
+{
+    dep_profile profile, friction;
+    dep_profile_set(&profile, &run->history, h, run->profile_nodes);
+    dep_history_predict(&run->history, &profile, run->predicted);
+    if (run->system.n_friction == 0) {
+        return dep_step(&run->stepper, &run->state, &profile, run->predicted, NULL, NULL,
+                        outcome, failure);
+    }
+    dep_profile_set(&friction, &run->friction, h, run->profile_nodes);
+    dep_history_predict(&run->friction, &friction, run->friction_predicted);
+    return dep_step(&run->stepper, &run->state, &profile, run->predicted, &friction,
+                    run->friction_predicted, outcome, failure);
+}
+
 /* One accepted step from run->state into run->outcome; *h: in the size to try, out the next. */
 static int advance(dep_run *run, double *h)
 {
@@ -310,15 +442,11 @@ static int advance(dep_run *run, double *h)
         double remaining = run->t_stop - run->state.t;
         dep_step_errors errors;
         dep_failure failure;
-        dep_profile profile;
         *h = fmin(*h, run->h_cap);
         double proposed = *h; /* before a cut to t_stop: what the next step starts from */
         int cut = *h >= remaining - run->h_min;
         *h = cut ? remaining : *h;
-        dep_profile_set(&profile, &run->history, *h, run->profile_nodes);
-        dep_history_predict(&run->history, &profile, run->predicted);
-        int status = dep_step(&run->stepper, &run->state, &profile, run->predicted,
-                              &run->outcome, &failure);
+        int status = dep_run_step(run, *h, &run->outcome, &failure);
         if (status == DEP_PASS_FAILED) {
             TRACE("step t=%.17g h=%.17g failed %s row %d\n", run->state.t, *h,
                   dep_stage_names[failure.stage], failure.row);
@@ -436,11 +564,12 @@ static int setup(dep_run *run, const double *params, const dep_event *events, in
     if (dep_constraints_init(&run->cs, &run->system, arena) != DEP_OK
         || dep_stepper_init(&run->stepper, &run->system, &run->cs, run->settings.tol, arena)
         || dep_history_init(&run->history, run->cs.capacity, arena)
+        || dep_history_init(&run->friction, m->nh + 1, arena)
         || (run->prior.qd = dep_doubles(arena, (size_t)m->nq)) == NULL
         || (run->prior.qdd = dep_doubles(arena, (size_t)m->nq)) == NULL
         || dep_state_init(&run->state, m->nq, run->cs.capacity, run->nd, arena)
-        || dep_outcome_init(&run->outcome, m->nq, run->cs.capacity, run->nd, arena)
-        || dep_outcome_init(&run->fired, m->nq, run->cs.capacity, run->nd, arena)
+        || dep_outcome_init(&run->outcome, m->nq, run->cs.capacity, run->nd, m->nh, arena)
+        || dep_outcome_init(&run->fired, m->nq, run->cs.capacity, run->nd, m->nh, arena)
         || dep_loads_init(&run->loads, m, arena)
         || dep_change_init(&run->change, m->nq, m->nh, arena)) {
         return dep_plain_error(run->error, DEP_MEMORY_ERROR, "out of memory");
@@ -465,8 +594,12 @@ static int setup(dep_run *run, const double *params, const dep_event *events, in
                                       + 3 * ny + 2 * nq);
     run->dense_J = dep_doubles(arena, DEP_JACOBIAN_SIZE(m));
     run->dense_lam = dep_doubles(arena, capacity);
-    run->tangent = dep_doubles(arena, ny);
-    run->normal = dep_doubles(arena, 2 * capacity + 2 * nq);
+    run->tangent = dep_doubles(arena, ny > 6 * nq ? ny : 6 * nq); /* also 3 x (q, qd) */
+    size_t nh = (size_t)m->nh + 1;
+    run->friction_predicted = dep_doubles(arena, nh);
+    run->friction_d = dep_doubles(arena, nh);
+    run->friction_table = dep_doubles(arena, (DEP_PROFILE_NODES + 2) * nh);
+    run->normal = dep_doubles(arena, 4 * capacity + 6 * nq);
     double **vectors[] = {&run->y, &run->dy, &run->work};
     for (size_t i = 0; i < 3; ++i) {
         *vectors[i] = dep_doubles(arena, ny);

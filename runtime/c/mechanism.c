@@ -25,6 +25,16 @@ double dep_friction_torque(const dep_hinge_mechanics *h, double rate)
     return -h->kinetic * tanh(rate / h->slip_rate);
 }
 
+/* d(dep_friction_torque) / d rate (<= 0): the regularised law's damping, else none. */
+double dep_friction_slope(const dep_hinge_mechanics *h, double rate)
+{
+    if (h->kinetic == 0.0 || dep_hinge_locked(h) || h->stuck || h->has_static) {
+        return 0.0;
+    }
+    double c = 1.0 / cosh(rate / h->slip_rate);
+    return -h->kinetic / h->slip_rate * (c * c);
+}
+
 /* A compliant latch's push max(0, k delta + c delta') (N m) for the overshoot delta. */
 static double contact_torque(double overshoot, double rate, double stiffness, double damping)
 {
@@ -63,9 +73,21 @@ int dep_hinge_forcing(const dep_system *system)
     return 0;
 }
 
-/* The torques on the hinge angles (nh), to add as J^T tau to the model's force. */
+/* Each hinge's friction torque at (q, qd) by its law (nh; 0 for a hinge without friction). */
+void dep_friction_law(const dep_system *system, const double *q, const double *qd,
+                      double *friction)
+{
+    system->model->hinge_rates(q, qd, system->p, system->rates);
+    for (int i = 0; i < system->nh; ++i) {
+        const dep_hinge_mechanics *h = &system->hinges[i];
+        friction[i] = h->has_friction ? dep_friction_torque(h, system->rates[i]) : 0.0;
+    }
+}
+
+/* The torques on the hinge angles (nh), to add as J^T tau to the model's force; the friction
+   torques given (nh) or, with NULL, by the law. */
 void dep_hinge_torques(const dep_system *system, const double *q, const double *qd,
-                       double *tau)
+                       const double *friction, double *tau)
 {
     const dep_model *model = system->model;
     int have_angles = 0;
@@ -75,7 +97,7 @@ void dep_hinge_torques(const dep_system *system, const double *q, const double *
         const dep_hinge_mechanics *h = &system->hinges[i];
         double rate = system->rates[i];
         if (h->has_friction) {
-            system->friction[i] = dep_friction_torque(h, rate);
+            system->friction[i] = friction != NULL ? friction[i] : dep_friction_torque(h, rate);
             tau[i] += system->friction[i];
         }
         if (h->latch_state == DEP_CONTACT) {

@@ -90,6 +90,10 @@ int dep_rk_init(dep_rk_step *rk, int n, dep_arena *arena);
 void dep_dopri_step(dep_rk_step *rk, dep_rhs_function rhs, void *context, double t0,
                     const double *y0, const double *k1, double h, double *scratch);
 void dep_dense_components(const dep_rk_step *rk, double t, int first, int count, double *out);
+/* The same at `points` times at once (at most DEP_DENSE_POINTS): out is points x count. */
+#define DEP_DENSE_POINTS 4
+void dep_dense_points(const dep_rk_step *rk, int points, const double *times, int first,
+                      int count, double *out);
 void dep_interpolant_data(double h, const double *q0, const double *qd0, const double *qdd0,
                           const double *q1, const double *qd1, const double *qdd1, int nq,
                           double *data);
@@ -171,9 +175,10 @@ typedef struct dep_pass_report {
 } dep_pass_report;
 
 typedef struct dep_failure {
-    int stage, row;
+    int stage, row; /* row -1: not a constraint row */
     double residual, scale;
     char reason[256];
+    char hint[256]; /* with row -1: what to try ("": the state may not be finite) */
 } dep_failure;
 
 typedef struct dep_measurement {
@@ -263,6 +268,7 @@ typedef struct dep_profile {
     double inverse[DEP_PROFILE_NODES + 1]; /* 1 / prod_{m != j} (u_j - u_m), u_nodes = 1 */
     double position, velocity;
     double excursion; /* integral_0^1 (1 - u) |prod_j (u - u_j) (u - 1)| du */
+    double drift;     /* integral_0^1 |prod_j (u - u_j) (u - 1)| du */
 } dep_profile;
 
 int dep_history_init(dep_history *history, int capacity, dep_arena *arena);
@@ -276,16 +282,16 @@ double dep_profile_end_weight(const dep_profile *profile, double t); /* l(u) of 
 void dep_history_predict(const dep_history *history, const dep_profile *profile, double *out);
 void dep_weights(const double *y0, const double *y1, int n, double tol, double *scale);
 double dep_rms(const double *x, const double *scale, int n);
-double dep_interpolation_error(const dep_profile *profile, const dep_history *history,
-                               const double *lam1, const double *lam_position,
-                               const double *J1, const dep_multipliers *mp,
-                               const double *scale_q, int nq, double *scratch, int *order);
+int dep_divided_difference(const dep_profile *profile, const dep_history *history,
+                           const double *end, double *d, double *scratch);
 /* A step's errors in tolerance units (1: at tolerance), controller.c. */
 typedef struct dep_step_errors {
     double ode;       /* the ODE method's (DOPRI 5(4) or ROS34PW2), tangential part */
     int ode_order;    /* its power of h */
-    double lam;       /* the multipliers' interpolation */
+    double lam;       /* the interpolation of the multipliers and of prescribed friction */
     int lam_order;    /* its power of h */
+    double friction;  /* the velocity error of prescribed friction's interpolation */
+    int friction_order; /* its power of h; 0: none */
 } dep_step_errors;
 
 double dep_step_error(const dep_step_errors *errors);
@@ -327,6 +333,13 @@ typedef struct dep_outcome {
     dep_pass_report reports[3];
     int integrations;
     dep_profile profile;     /* the step's lambda(t) (its history part; the end is the state's) */
+    /* With friction prescribed over the step (stepper.c): its profile, and the friction law
+       at the new state (nh), the end value the profile was iterated to. */
+    int prescribed;
+    dep_profile friction_profile;
+    double *friction;
+    double friction_rate;    /* max_k C_k (J_h Mc^-1 J_h^T)_kk (1/s): its fastest damping */
+    int friction_hinge;      /* the hinge k of that damping */
 } dep_outcome;
 
 typedef struct dep_stepper {
@@ -345,7 +358,7 @@ typedef struct dep_stepper {
     double *y0, *k1, *rhs_lam, *force, *jt_lam, *scratch;
     dep_rk_step base;       /* the step's last integration, for lambda_{i+1} = base_lam */
     double *base_lam, *base_J; /* nc; nc x nq: Phi_q at its end */
-    double *q1, *phi_t1, *lam_pos;
+    double *q1, *phi_t1, *lam_pos, *lam_solved;
     int base_valid, integrations_this_step;
     double *restart_J;
     dep_acceleration_work accel;
@@ -362,6 +375,21 @@ typedef struct dep_stepper {
     int *slot, n_slots, max_slots;
     double *columns, weight[4];
     long long responses_id;
+    /* Hinge friction prescribed over the step like the multipliers (DOPRI steps of a model
+       with friction): its profile through the accepted friction torques and an end value,
+       iterated until the friction law at the step's end gives it back. */
+    int prescribed;
+    dep_profile friction_profile;
+    double *friction_end, *friction_base, *friction_now; /* nh: end value, base's, at t */
+    double *base_Jh, *Jh;   /* nhnz: J_h at the base's end, at the new state */
+    double *law, *residual; /* nh */
+    int *free_hinges, n_free; /* the hinges whose friction can act */
+    double *mobile;         /* n_free x nq: Mc^-1 J_h^T e_k, constrained M^-1 at the end */
+    double *mobile_lam;     /* n_free x capacity: S^-1 J M^-1 J_h^T e_k */
+    double *newton;         /* n_free x n_free, n_free: I + h V C J_h Mc^-1 J_h^T, scratch */
+    double *dtau;
+    double friction_rate;   /* max_k C_k (J_h Mc^-1 J_h^T)_kk at the last round 0 (1/s) */
+    int friction_hinge;     /* its hinge */
 } dep_stepper;
 
 double dep_constraint_tolerance(double tol);
@@ -369,7 +397,8 @@ int dep_stepper_init(dep_stepper *stepper, const dep_system *system, dep_constra
                      double tol, dep_arena *arena);
 int dep_state_init(dep_state *state, int nq, int capacity, int nd, dep_arena *arena);
 void dep_state_copy(dep_state *to, const dep_state *from, int nq, int nc, int nd);
-int dep_outcome_init(dep_outcome *outcome, int nq, int capacity, int nd, dep_arena *arena);
+int dep_outcome_init(dep_outcome *outcome, int nq, int capacity, int nd, int nh,
+                     dep_arena *arena);
 void dep_stepper_derivative(dep_stepper *stepper, const dep_state *state, double *dy);
 void dep_stepper_rhs(void *context, double t, const double *y, double *dy);
 void dep_stepper_set_rhs(dep_stepper *stepper, const dep_profile *profile,
@@ -384,7 +413,10 @@ int dep_acceleration(dep_stepper *stepper, const double *q, const double *qd, do
 int dep_stepper_prepare_implicit(dep_stepper *stepper, dep_arena *arena);
 /* The multipliers' G of the last step's pass (DEP_POSITION, DEP_VELOCITY), M^-1 otherwise. */
 void dep_stepper_use_mobility(dep_stepper *stepper, int stage);
+/* friction_profile, friction_predicted: NULL, or the friction torques' profile and predicted
+   end value (a model with hinge friction; DOPRI steps). */
 int dep_step(dep_stepper *stepper, const dep_state *state, const dep_profile *profile,
-             const double *lam_predicted, dep_outcome *outcome, dep_failure *failure);
+             const double *lam_predicted, const dep_profile *friction_profile,
+             const double *friction_predicted, dep_outcome *outcome, dep_failure *failure);
 
 #endif /* DEPSIM_METHOD_H */

@@ -38,6 +38,9 @@ struct dep_run { /* typedef in depsim.h */
     int n_user_events;
     dep_tally tally;
     dep_history history;
+    dep_history friction;      /* the hinges' friction torques at the same points (nh) */
+    double *friction_predicted, *friction_table, *friction_d; /* scratch */
+    int friction_steps;   /* accepted steps in a row held by friction's damping (step_budget) */
     dep_prior prior;
     dep_loads loads;
     dep_state state;
@@ -73,6 +76,7 @@ int dep_run_record_until(dep_run *run, double t_until, const dep_outcome *end);
 int dep_run_start(dep_run *run, const double *q0, const double *qd0);
 int dep_run_assemble(dep_run *run, double *q, double *qd); /* assembly.c */
 int dep_run_after_step(dep_run *run, int *stop);
+int dep_run_step(dep_run *run, double h, dep_outcome *outcome, dep_failure *failure);
 void dep_run_attach_prior(const dep_run *run, dep_outcome *end);
 const dep_active_rows *dep_run_rows(dep_run *run, const dep_state *state);
 void dep_run_observe_loads(dep_run *run, const dep_state *s);

@@ -25,9 +25,21 @@
 #include "runtime.h"
 
 #define CONSTRAINT_FRACTION 0.01
-#define LINEAR_LIMIT 0.1 /* tolerances: larger position-pass moves integrate the step again */
+/* A position-pass trial moves the last integration's end linearly (frozen Phi_q) when that
+   moves q and qd by at most LINEAR_MISS / s^2 tolerances, s = h |lambda| the DOPRI step's
+   stiffness estimate: what the linearisation misses is about s^2 of the move, kept as small
+   as the passes' own residuals; at most LINEAR_MOST, and LINEAR_LIMIT for the Rosenbrock step.
+   Larger moves integrate the step again. */
+#define LINEAR_MISS CONSTRAINT_FRACTION
+#define LINEAR_MOST 10.0
+#define LINEAR_LIMIT 0.1
 #define ROUNDOFF (16 * DEP_EPS)
 #define WEIGHT_MATCH 1e-12 /* end weights (of order 1) this close give the same responses */
+/* The friction torques' end value is settled when the law at the step's end gives it back to
+   within this many tolerances of its effect on the end state (as the passes' constraint
+   errors); FRICTION_ROUNDS end values are tried before the step fails. */
+#define FRICTION_LIMIT CONSTRAINT_FRACTION
+#define FRICTION_ROUNDS 8
 
 /* The passes' iteration tolerance for an integration tolerance tol (constraint_tolerance). */
 double dep_constraint_tolerance(double tol)
@@ -56,10 +68,12 @@ void dep_state_copy(dep_state *to, const dep_state *from, int nq, int nc, int nd
     memcpy(to->work, from->work, (size_t)nd * sizeof(double));
 }
 
-int dep_outcome_init(dep_outcome *outcome, int nq, int capacity, int nd, dep_arena *arena)
+int dep_outcome_init(dep_outcome *outcome, int nq, int capacity, int nd, int nh,
+                     dep_arena *arena)
 {
     memset(outcome, 0, sizeof *outcome);
     outcome->data = dep_doubles(arena, 12 * (size_t)nq + 1);
+    outcome->friction = dep_doubles(arena, (size_t)nh + 1);
     return dep_state_init(&outcome->state, nq, capacity, nd, arena);
 }
 
@@ -89,7 +103,7 @@ int dep_stepper_init(dep_stepper *stepper, const dep_system *system, dep_constra
         *vectors[i] = dep_doubles(arena, (size_t)ny);
     }
     double **rows[] = {&stepper->rhs_lam, &stepper->base_lam, &stepper->phi_t1,
-                       &stepper->lam_pos};
+                       &stepper->lam_pos, &stepper->lam_solved};
     for (size_t i = 0; i < sizeof rows / sizeof *rows; ++i) {
         *rows[i] = dep_doubles(arena, (size_t)capacity);
     }
@@ -113,6 +127,20 @@ int dep_stepper_init(dep_stepper *stepper, const dep_system *system, dep_constra
     stepper->dq = dep_doubles(arena, (size_t)nq);
     stepper->dqd = dep_doubles(arena, (size_t)nq);
     stepper->column = dep_doubles(arena, (size_t)nq);
+    size_t nh = (size_t)system->nh + 1, nhnz = (size_t)system->model->nhnz + 1;
+    double **hinge_rows[] = {&stepper->friction_end, &stepper->friction_base,
+                             &stepper->friction_now, &stepper->law, &stepper->residual,
+                             &stepper->dtau};
+    for (size_t i = 0; i < sizeof hinge_rows / sizeof *hinge_rows; ++i) {
+        *hinge_rows[i] = dep_doubles(arena, nh);
+    }
+    stepper->base_Jh = dep_doubles(arena, nhnz);
+    stepper->Jh = dep_doubles(arena, nhnz);
+    stepper->free_hinges = dep_bytes(arena, nh * sizeof *stepper->free_hinges);
+    stepper->mobile = dep_doubles(arena, (size_t)system->n_friction * (size_t)nq + 1);
+    stepper->mobile_lam = dep_doubles(arena, (size_t)system->n_friction * (size_t)capacity + 1);
+    stepper->newton = dep_doubles(arena, (size_t)system->n_friction
+                                         * (size_t)(system->n_friction + 1) + 1);
     stepper->implicit = 0;
     if (system->model->nkz > 0 && dep_stepper_prepare_implicit(stepper, arena) != DEP_OK) {
         return DEP_MEMORY_ERROR;
@@ -183,7 +211,13 @@ static void right_side(dep_stepper *stepper, double t, const double *y, double *
     dep_cs_jacobian_transpose_times(cs, q, t, stepper->rhs_lam, stepper->jt_lam);
     memcpy(out, qd, (size_t)nq * sizeof *out);
     if (s->nd > 0) { /* the work rates too, from the same hinge rates and friction torques */
-        dep_system_force_power(s, q, qd, t, stepper->force, out + 2 * nq);
+        const double *friction = NULL;
+        if (stepper->prescribed) {
+            dep_profile_value(&stepper->friction_profile, stepper->friction_end, t, s->nh,
+                              stepper->friction_now);
+            friction = stepper->friction_now;
+        }
+        dep_system_force_power(s, q, qd, t, friction, stepper->force, out + 2 * nq);
     } else {
         dep_system_force(s, q, qd, t, stepper->force);
     }
@@ -248,6 +282,12 @@ static void integrate(dep_stepper *stepper, const double *lam1)
     }
     memcpy(stepper->base_lam, lam1, (size_t)nc * sizeof *lam1);
     dep_cs_jacobian(stepper->constraints, stepper->base.y1, stepper->t1, stepper->base_J);
+    if (stepper->prescribed) {
+        const dep_system *system = stepper->system;
+        memcpy(stepper->friction_base, stepper->friction_end,
+               (size_t)system->nh * sizeof(double));
+        system->model->hinge_jacobian(stepper->base.y1, system->p, stepper->base_Jh);
+    }
     stepper->base_valid = 1;
 }
 
@@ -365,8 +405,9 @@ static void respond(dep_stepper *stepper, const double *x)
     }
 }
 
-/* The response to lambda_{i+1} changed by lam - from, Phi_q frozen at J. */
-static void respond_to(dep_stepper *stepper, const double *J, const double *lam,
+/* The constraint force of lambda_{i+1} changed by lam - from, Phi_q frozen at J, into
+   stepper->column. */
+static void lam_column(dep_stepper *stepper, const double *J, const double *lam,
                        const double *from)
 {
     int nc = stepper->constraints->nc;
@@ -374,6 +415,13 @@ static void respond_to(dep_stepper *stepper, const double *J, const double *lam,
         stepper->rhs_lam[i] = lam[i] - from[i];
     }
     dep_cs_transpose_times(stepper->constraints, J, stepper->rhs_lam, stepper->column);
+}
+
+/* The response to lambda_{i+1} changed by lam - from, Phi_q frozen at J. */
+static void respond_to(dep_stepper *stepper, const double *J, const double *lam,
+                       const double *from)
+{
+    lam_column(stepper, J, lam, from);
     respond(stepper, stepper->column);
 }
 
@@ -413,27 +461,53 @@ void dep_stepper_use_mobility(dep_stepper *stepper, int stage)
 }
 
 /* The base trajectory's end moved to lambda_{i+1} = lam1 by the frozen-Phi_q response to the
-   change lam1 - base_lam; 0 (nothing done) when that moves q or qd by more than LINEAR_LIMIT
-   tolerances, where the part of the true response the linearisation misses (tangential, a
-   fraction of the move) could cost accuracy: the step is integrated again instead. */
+   change lam1 - base_lam (and the friction's end value's); 0 (nothing done) when that moves
+   q or qd further than the linearisation is accurate (LINEAR_MISS): the step is integrated
+   again instead. */
 static int correct_base(dep_stepper *stepper, const double *lam1, dep_rk_step *out)
 {
     int nq = stepper->nq;
     double sum = 0.0;
-    respond_to(stepper, stepper->base_J, lam1, stepper->base_lam);
+    lam_column(stepper, stepper->base_J, lam1, stepper->base_lam);
+    if (stepper->prescribed) { /* less J_h^T times the friction's end value's change */
+        const dep_system *system = stepper->system;
+        for (int i = 0; i < system->nh; ++i) {
+            stepper->residual[i] = stepper->friction_end[i] - stepper->friction_base[i];
+        }
+        dep_hinge_transpose_times(system, stepper->base_Jh, stepper->residual, stepper->dq);
+        for (int j = 0; j < nq; ++j) {
+            stepper->column[j] -= stepper->dq[j];
+        }
+    }
+    respond(stepper, stepper->column);
     for (int j = 0; j < nq; ++j) { /* the moves of q and qd in tolerance units */
         double move = stepper->dq[j], rate = stepper->dqd[j];
         double scale = stepper->tol * (1.0 + fabs(stepper->base.y1[j]));
         double rate_scale = stepper->tol * (1.0 + fabs(stepper->base.y1[nq + j]));
         sum += (move / scale) * (move / scale) + (rate / rate_scale) * (rate / rate_scale);
     }
-    if (!(sqrt(sum / (2 * nq)) <= LINEAR_LIMIT)) {
+    double s2 = stepper->base.stiffness * stepper->base.stiffness, limit = LINEAR_LIMIT;
+    if (stepper->base.method == DEP_DOPRI) {
+        limit = s2 * LINEAR_MOST > LINEAR_MISS ? LINEAR_MISS / s2 : LINEAR_MOST;
+    }
+    if (!(sqrt(sum / (2 * nq)) <= limit)) {
         return 0;
     }
     copy_base(stepper, out);
     for (int j = 0; j < nq; ++j) {
         out->y1[j] += stepper->dq[j];
         out->y1[nq + j] += stepper->dqd[j];
+    }
+    if (stepper->prescribed) { /* each friction's work, -tau rate: d tau l(u) at the end rate */
+        const dep_system *system = stepper->system;
+        double *work = out->y1 + 2 * nq + system->model->nd;
+        system->model->hinge_rates(out->y1, out->y1 + nq, system->p, stepper->law);
+        for (int i = 0, k = 0; i < system->nh; ++i) {
+            if (system->hinges[i].has_friction) {
+                work[k++] -= stepper->h * stepper->profile.velocity * stepper->residual[i]
+                             * stepper->law[i];
+            }
+        }
     }
     return 1;
 }
@@ -501,10 +575,182 @@ static void finish_step(dep_stepper *stepper, const dep_state *state, dep_outcom
     outcome->integrations = stepper->integrations_this_step;
 }
 
+/* ---- friction prescribed over the step ----------------------------------------------------- */
+
+/* The hinges whose friction can act now, and for each (k) the velocity response at the step's
+   end to a unit change of its friction's end value, per h V, once the velocity pass has
+   restored the rows: Mc^-1 J_h^T e_k, Mc^-1 = M^-1 - M^-1 J^T S^-1 J M^-1 (J: Phi_q at the
+   end; M^-1 alone where S is singular); and the change of lambda_{i+1} that restores the rows,
+   S^-1 J M^-1 J_h^T e_k (for frozen Phi_q the same in every pass). */
+static void friction_mobility(dep_stepper *stepper, const double *q1, const dep_measurement *pos)
+{
+    const dep_system *system = stepper->system;
+    dep_constraints *cs = stepper->constraints;
+    int nq = stepper->nq, nc = cs->nc, nh = system->nh;
+    system->model->hinge_jacobian(q1, system->p, stepper->Jh);
+    stepper->n_free = 0;
+    for (int i = 0; i < nh; ++i) {
+        const dep_hinge_mechanics *h = &system->hinges[i];
+        if (h->has_friction && h->kinetic != 0.0 && !dep_hinge_locked(h) && !h->stuck) {
+            stepper->free_hinges[stepper->n_free++] = i;
+        }
+    }
+    for (int k = 0; k < stepper->n_free; ++k) {
+        double *out = stepper->mobile + (size_t)k * (size_t)nq;
+        double *lam = stepper->mobile_lam + (size_t)k * (size_t)cs->capacity;
+        memset(lam, 0, (size_t)nc * sizeof *lam);
+        memset(stepper->residual, 0, (size_t)nh * sizeof *stepper->residual);
+        stepper->residual[stepper->free_hinges[k]] = 1.0;
+        dep_hinge_transpose_times(system, stepper->Jh, stepper->residual, stepper->column);
+        dep_mass_solve(&system->mass, stepper->column, out);
+        if (nc == 0) {
+            continue;
+        }
+        dep_cs_times(cs, pos->J, out, stepper->rhs_lam);
+        if (dep_schur_solve(&stepper->mp, pos->J, pos->jacobian_id, nc, stepper->rhs_lam, lam)) {
+            dep_cs_transpose_times(cs, pos->J, lam, stepper->column);
+            dep_mass_solve(&system->mass, stepper->column, stepper->force);
+            for (int j = 0; j < nq; ++j) {
+                out[j] -= stepper->force[j];
+            }
+        }
+    }
+}
+
+/* x = A^-1 b for the n x n matrix A (row-major, overwritten), by elimination with partial
+   pivoting; b is overwritten by x. */
+static void solve_small(int n, double *A, double *b)
+{
+    for (int c = 0; c < n; ++c) {
+        int pivot = c;
+        for (int r = c + 1; r < n; ++r) {
+            pivot = fabs(A[r * n + c]) > fabs(A[pivot * n + c]) ? r : pivot;
+        }
+        if (pivot != c) {
+            for (int m = 0; m < n; ++m) {
+                double swap = A[c * n + m];
+                A[c * n + m] = A[pivot * n + m];
+                A[pivot * n + m] = swap;
+            }
+            double swap = b[c];
+            b[c] = b[pivot];
+            b[pivot] = swap;
+        }
+        for (int r = c + 1; r < n; ++r) {
+            double factor = A[r * n + c] / A[c * n + c];
+            for (int m = c; m < n; ++m) {
+                A[r * n + m] -= factor * A[c * n + m];
+            }
+            b[r] -= factor * b[c];
+        }
+    }
+    for (int c = n - 1; c >= 0; --c) {
+        double sum = b[c];
+        for (int m = c + 1; m < n; ++m) {
+            sum -= A[c * n + m] * b[m];
+        }
+        b[c] = sum / A[c * n + c];
+    }
+}
+
+/* After the velocity pass of round `round`: 1 when the friction law at the new state (q1, qd1)
+   gives back the end value the step prescribed, to within FRICTION_LIMIT tolerances of the
+   difference's effect on the end state; else 0, with the end value moved by Newton's step for
+   law(rate(tau_end)) = tau_end, the rates' response h V J_h Mc^-1 J_h^T d(tau_end) (C: the
+   law's damping -d law / d rate). */
+static int friction_settled(dep_stepper *stepper, const double *q1, const double *qd1,
+                            int round, const dep_measurement *pos)
+{
+    const dep_system *system = stepper->system;
+    int nq = stepper->nq, nf;
+    double h = stepper->h, V = stepper->profile.velocity, P = stepper->profile.position;
+    double sum = 0.0, *G = stepper->newton, *slope;
+    dep_friction_law(system, q1, qd1, stepper->law);
+    if (round == 0) {
+        friction_mobility(stepper, q1, pos);
+    }
+    nf = stepper->n_free;
+    slope = G + (size_t)nf * (size_t)nf;
+    memset(stepper->dqd, 0, (size_t)nq * sizeof *stepper->dqd);
+    for (int k = 0; k < nf; ++k) {
+        int i = stepper->free_hinges[k];
+        const double *mobile = stepper->mobile + (size_t)k * (size_t)nq;
+        stepper->dtau[k] = stepper->law[i] - stepper->friction_end[i];
+        slope[k] = -dep_friction_slope(&system->hinges[i], system->rates[i]);
+        for (int j = 0; j < nq; ++j) {
+            stepper->dqd[j] += mobile[j] * stepper->dtau[k];
+        }
+    }
+    if (round == 0) { /* the fastest damping: C_k (J_h Mc^-1 J_h^T)_kk */
+        stepper->friction_rate = 0.0;
+        stepper->friction_hinge = -1;
+        for (int k = 0; k < nf; ++k) {
+            int i = stepper->free_hinges[k];
+            system->model->hinge_rates(q1, stepper->mobile + (size_t)k * (size_t)nq, system->p,
+                                       stepper->residual);
+            if (slope[k] * stepper->residual[i] > stepper->friction_rate) {
+                stepper->friction_rate = slope[k] * stepper->residual[i];
+                stepper->friction_hinge = i;
+            }
+        }
+    }
+    for (int j = 0; j < nq; ++j) { /* the moves of q and qd in tolerance units */
+        double move = h * h * P * stepper->dqd[j] / (stepper->tol * (1.0 + fabs(q1[j])));
+        double rate = h * V * stepper->dqd[j] / (stepper->tol * (1.0 + fabs(qd1[j])));
+        sum += move * move + rate * rate;
+    }
+    if (sqrt(sum / (2 * nq)) <= FRICTION_LIMIT) {
+        return 1;
+    }
+    for (int k = 0; k < nf; ++k) { /* column k: h V C J_h Mc^-1 J_h^T e_k, then I */
+        system->model->hinge_rates(q1, stepper->mobile + (size_t)k * (size_t)nq, system->p,
+                                   stepper->residual);
+        for (int r = 0; r < nf; ++r) {
+            G[r * nf + k] = h * V * slope[r] * stepper->residual[stepper->free_hinges[r]]
+                            + (r == k ? 1.0 : 0.0);
+        }
+    }
+    solve_small(nf, G, stepper->dtau);
+    for (int k = 0; k < nf; ++k) {
+        const double *lam = stepper->mobile_lam + (size_t)k * (size_t)stepper->capacity;
+        stepper->friction_end[stepper->free_hinges[k]] += stepper->dtau[k];
+        for (int i = 0; i < stepper->constraints->nc; ++i) {
+            stepper->lam_pos[i] += lam[i] * stepper->dtau[k];
+        }
+    }
+    return 0;
+}
+
+static int friction_failure(const dep_stepper *stepper, dep_failure *failure)
+{
+    const dep_system *system = stepper->system;
+    int worst = 0;
+    double off = -1.0;
+    for (int i = 0; i < system->nh; ++i) {
+        double d = fabs(stepper->law[i] - stepper->friction_end[i]);
+        if (d > off) {
+            off = d;
+            worst = i;
+        }
+    }
+    failure->stage = DEP_VELOCITY;
+    failure->row = -1;
+    failure->residual = off;
+    failure->scale = 0.0;
+    snprintf(failure->reason, sizeof failure->reason, "the friction torques at the step's end "
+             "did not settle in %d trials (hinge %s: %.3g N m off its law)", FRICTION_ROUNDS,
+             system->hinges[worst].name, off);
+    snprintf(failure->hint, sizeof failure->hint, "the friction changes faster than the step "
+             "can follow; a larger slip_rate on that hinge, or a tighter tol, may help");
+    return DEP_PASS_FAILED;
+}
+
+/* ---- one step ---------------------------------------------------------------------------- */
+
 /* Advance `state` by the profile's h (s) from the predicted lambda_{i+1}; DEP_PASS_FAILED
    when a pass does not converge. The outcome is valid until the next step. */
-int dep_step(dep_stepper *stepper, const dep_state *state, const dep_profile *profile,
-             const double *lam_predicted, dep_outcome *outcome, dep_failure *failure)
+static int take_step(dep_stepper *stepper, const dep_state *state, const dep_profile *profile,
+                     const double *lam_predicted, dep_outcome *outcome, dep_failure *failure)
 {
     double h = profile->h;
     dep_constraints *cs = stepper->constraints;
@@ -528,6 +774,7 @@ int dep_step(dep_stepper *stepper, const dep_state *state, const dep_profile *pr
             failure->stage = DEP_POSITION;
             failure->row = -1;
             failure->residual = failure->scale = 0.0;
+            failure->hint[0] = '\0';
             snprintf(failure->reason, sizeof failure->reason, "the linearly implicit step's "
                      "matrix M + gamma h D + gamma^2 h^2 K is not positive definite");
             return DEP_PASS_FAILED;
@@ -537,32 +784,42 @@ int dep_step(dep_stepper *stepper, const dep_state *state, const dep_profile *pr
         unit_responses(stepper);
         stepper->mobility_ids += 2;
     }
-    dep_stepper_use_mobility(stepper, DEP_POSITION);
+    for (int round = 0;; ++round) { /* a round for each end value of the friction torques */
+        dep_stepper_use_mobility(stepper, DEP_POSITION);
+        dep_measurement *position[2] = {&stepper->slots[0], &stepper->slots[1]};
+        status = dep_iterate_multipliers(&stepper->mp, DEP_POSITION, new->lam, nc,
+                                         measure_position, stepper, h * h * profile->position,
+                                         stepper->constraint_tol, position,
+                                         &stepper->final_position, &outcome->reports[0],
+                                         failure);
+        if (status != DEP_OK) {
+            dep_stepper_use_mobility(stepper, DEP_ACCELERATION);
+            return status;
+        }
+        dep_stepper_use_mobility(stepper, DEP_VELOCITY);
+        memcpy(new->q, stepper->final_position->rk.y1, (size_t)nq * sizeof(double));
+        dep_cs_phi_t(cs, new->q, stepper->t1, stepper->phi_t1);
+        memcpy(stepper->lam_pos, new->lam, (size_t)nc * sizeof(double));
 
-    dep_measurement *position[2] = {&stepper->slots[0], &stepper->slots[1]};
-    status = dep_iterate_multipliers(&stepper->mp, DEP_POSITION, new->lam, nc, measure_position,
-                                     stepper, h * h * profile->position,
-                                     stepper->constraint_tol, position,
-                                     &stepper->final_position, &outcome->reports[0], failure);
-    if (status != DEP_OK) {
+        dep_measurement *velocity[2] = {&stepper->slots[2], &stepper->slots[3]};
+        status = dep_iterate_multipliers(&stepper->mp, DEP_VELOCITY, new->lam, nc,
+                                         measure_velocity, stepper, h * profile->velocity,
+                                         stepper->constraint_tol, velocity, &final,
+                                         &outcome->reports[1], failure);
         dep_stepper_use_mobility(stepper, DEP_ACCELERATION);
-        return status;
+        if (status != DEP_OK) {
+            return status;
+        }
+        memcpy(new->qd, final->x, (size_t)nq * sizeof(double));
+        if (!stepper->prescribed
+            || friction_settled(stepper, new->q, new->qd, round, stepper->final_position)) {
+            break;
+        }
+        if (round + 1 == FRICTION_ROUNDS) {
+            return friction_failure(stepper, failure);
+        }
+        memcpy(new->lam, stepper->lam_pos, (size_t)nc * sizeof(double));
     }
-    dep_stepper_use_mobility(stepper, DEP_VELOCITY);
-    memcpy(new->q, stepper->final_position->rk.y1, (size_t)nq * sizeof(double));
-    dep_cs_phi_t(cs, new->q, stepper->t1, stepper->phi_t1);
-    memcpy(stepper->lam_pos, new->lam, (size_t)nc * sizeof(double));
-
-    dep_measurement *velocity[2] = {&stepper->slots[2], &stepper->slots[3]};
-    status = dep_iterate_multipliers(&stepper->mp, DEP_VELOCITY, new->lam, nc, measure_velocity,
-                                     stepper, h * profile->velocity, stepper->constraint_tol,
-                                     velocity, &final,
-                                     &outcome->reports[1], failure);
-    dep_stepper_use_mobility(stepper, DEP_ACCELERATION);
-    if (status != DEP_OK) {
-        return status;
-    }
-    memcpy(new->qd, final->x, (size_t)nq * sizeof(double));
     status = dep_acceleration(stepper, new->q, new->qd, stepper->t1, new->lam,
                               stepper->final_position->J, stepper->final_position->jacobian_id,
                               new->qdd, &outcome->reports[2], failure);
@@ -572,4 +829,30 @@ int dep_step(dep_stepper *stepper, const dep_state *state, const dep_profile *pr
     new->t = stepper->t1;
     finish_step(stepper, state, outcome);
     return DEP_OK;
+}
+
+int dep_step(dep_stepper *stepper, const dep_state *state, const dep_profile *profile,
+             const double *lam_predicted, const dep_profile *friction_profile,
+             const double *friction_predicted, dep_outcome *outcome, dep_failure *failure)
+{
+    const dep_system *system = stepper->system;
+    stepper->prescribed = friction_profile != NULL && !stepper->implicit;
+    outcome->prescribed = stepper->prescribed;
+    if (stepper->prescribed) {
+        stepper->friction_profile = *friction_profile;
+        outcome->friction_profile = *friction_profile;
+        memcpy(stepper->friction_end, friction_predicted, (size_t)system->nh * sizeof(double));
+    }
+    int status = take_step(stepper, state, profile, lam_predicted, outcome, failure);
+    if (status == DEP_OK && system->n_friction > 0) { /* the law at the new state */
+        if (stepper->prescribed) {
+            memcpy(outcome->friction, stepper->law, (size_t)system->nh * sizeof(double));
+            outcome->friction_rate = stepper->friction_rate;
+            outcome->friction_hinge = stepper->friction_hinge;
+        } else {
+            dep_friction_law(system, outcome->state.q, outcome->state.qd, outcome->friction);
+        }
+    }
+    stepper->prescribed = 0; /* other callers of the right side: the law */
+    return status;
 }

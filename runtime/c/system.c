@@ -430,26 +430,40 @@ const char *dep_joint_kind(const dep_system *system, const char *joint)
 
 /* ---- the forces, powers and energies of a run -------------------------------------------- */
 
-/* f (nq): the model's force plus J_h^T tau of the hinge torques (mechanism.c). */
-void dep_system_force(const dep_system *system, const double *q, const double *qd, double t,
-                      double *f)
+/* out (nq) = J_h^T tau, J_h the hinge Jacobian's non-zeros (model->hinge_jacobian). */
+void dep_hinge_transpose_times(const dep_system *system, const double *J_h, const double *tau,
+                               double *out)
+{
+    const dep_model *model = system->model;
+    memset(out, 0, (size_t)system->nq * sizeof *out);
+    for (int k = 0; k < model->nhnz; ++k) {
+        out[model->hinge_jacobian_cols[k]] += J_h[k] * tau[model->hinge_jacobian_rows[k]];
+    }
+}
+
+/* f (nq): the model's force plus J_h^T tau of the hinge torques (mechanism.c), the friction
+   torques given (nh) or, with NULL, by the law. */
+static void force(const dep_system *system, const double *q, const double *qd, double t,
+                  const double *friction, double *f)
 {
     const dep_model *model = system->model;
     model->force(q, qd, t, system->p, f);
     if (!dep_hinge_forcing(system)) {
         return;
     }
-    dep_hinge_torques(system, q, qd, system->tau);
+    dep_hinge_torques(system, q, qd, friction, system->tau);
     model->hinge_jacobian(q, system->p, system->hinge_jacobian);
-    double *sum = system->torque_force; /* J_h^T tau, summed over the hinges in order */
-    memset(sum, 0, (size_t)system->nq * sizeof *sum);
-    for (int k = 0; k < model->nhnz; ++k) {
-        sum[model->hinge_jacobian_cols[k]] += system->hinge_jacobian[k]
-                                              * system->tau[model->hinge_jacobian_rows[k]];
-    }
+    dep_hinge_transpose_times(system, system->hinge_jacobian, system->tau,
+                              system->torque_force);
     for (int j = 0; j < system->nq; ++j) {
-        f[j] += sum[j];
+        f[j] += system->torque_force[j];
     }
+}
+
+void dep_system_force(const dep_system *system, const double *q, const double *qd, double t,
+                      double *f)
+{
+    force(system, q, qd, t, NULL, f);
 }
 
 /* The power removed by each dissipator (nd), W. */
@@ -463,9 +477,9 @@ void dep_system_dissipation(const dep_system *system, const double *q, const dou
 }
 
 void dep_system_force_power(const dep_system *system, const double *q, const double *qd,
-                            double t, double *f, double *power)
+                            double t, const double *friction, double *f, double *power)
 {
-    dep_system_force(system, q, qd, t, f);
+    force(system, q, qd, t, friction, f);
     if (system->model->nd > 0) {
         system->model->dissipation(q, qd, t, system->p, power);
     }

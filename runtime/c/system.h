@@ -119,9 +119,15 @@ int dep_system_init(dep_system *system, const dep_model *model, const double *p,
 
 /* mechanism.c: the hinge torques the integrator applies (friction, compliant contact). */
 double dep_friction_torque(const dep_hinge_mechanics *h, double rate);
+double dep_friction_slope(const dep_hinge_mechanics *h, double rate);
+void dep_friction_law(const dep_system *system, const double *q, const double *qd,
+                      double *friction);
 int dep_hinge_forcing(const dep_system *system);
+/* friction: the friction torques (nh) to apply, or NULL for the law at (q, qd) */
 void dep_hinge_torques(const dep_system *system, const double *q, const double *qd,
-                       double *tau);
+                       const double *friction, double *tau);
+void dep_hinge_transpose_times(const dep_system *system, const double *J_h, const double *tau,
+                               double *out);
 void dep_hinge_dissipation(const dep_system *system, const double *q, const double *qd,
                            double *power);
 /* The same from the rates and friction torques dep_hinge_torques left at (q, qd). */
@@ -132,9 +138,10 @@ void dep_system_force(const dep_system *system, const double *q, const double *q
                       double *f);
 void dep_system_dissipation(const dep_system *system, const double *q, const double *qd,
                             double t, double *power);
-/* Both at one state, the hinge rates and friction torques evaluated once. */
+/* Both at one state, the hinge rates and friction torques evaluated once; the friction
+   torques given (nh), or NULL for the law. */
 void dep_system_force_power(const dep_system *system, const double *q, const double *qd,
-                            double t, double *f, double *power);
+                            double t, const double *friction, double *f, double *power);
 void dep_system_energy(const dep_system *system, const double *q, const double *qd, double t,
                        double *energy);
 

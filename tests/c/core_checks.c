@@ -50,7 +50,8 @@ static int start(parts *x, double tol)
         || dep_stepper_init(&x->stepper, &x->system, &x->cs, tol, &x->arena) != DEP_OK
         || dep_history_init(&x->history, x->cs.capacity, &x->arena) != DEP_OK
         || dep_state_init(&x->state, m->nq, x->cs.capacity, x->system.nd, &x->arena) != DEP_OK
-        || dep_outcome_init(&x->outcome, m->nq, x->cs.capacity, x->system.nd, &x->arena)) {
+        || dep_outcome_init(&x->outcome, m->nq, x->cs.capacity, x->system.nd, m->nh,
+                            &x->arena)) {
         return fail("setup");
     }
     double *v = dep_doubles(&x->arena, (size_t)m->nv + 1);
@@ -81,7 +82,8 @@ static int iteration(double h)
     dep_profile profile;
     dep_profile_set(&profile, &x.history, h, DEP_PROFILE_NODES);
     if (zero == NULL
-        || dep_step(&x.stepper, &x.state, &profile, zero, &x.outcome, &failure) != DEP_OK) {
+        || dep_step(&x.stepper, &x.state, &profile, zero, NULL, NULL, &x.outcome, &failure)
+               != DEP_OK) {
         return fail("step");
     }
     for (int k = 0; k < 3; ++k) {
@@ -123,7 +125,8 @@ static int fixed(int n, double t_end, double tol, int implicit)
         dep_profile profile;
         dep_profile_set(&profile, &x.history, h, nodes);
         dep_history_predict(&x.history, &profile, predicted);
-        if (dep_step(&x.stepper, &x.state, &profile, predicted, &x.outcome, &failure)
+        if (dep_step(&x.stepper, &x.state, &profile, predicted, NULL, NULL, &x.outcome,
+                     &failure)
             != DEP_OK) {
             fprintf(stderr, "core_checks: step %d, %s pass: %s\n", k,
                     dep_stage_names[failure.stage], failure.reason);

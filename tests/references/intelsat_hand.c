@@ -1,5 +1,6 @@
 /* intelsat_hand.c: a minimal hand-written solver of the INTELSAT V deployment, the baseline
- * depsim is measured against (bench/bench_intelsat.py). Nothing is shared with depsim.
+ * depsim is measured against (bench/bench_intelsat.py) and the test suite's reference
+ * (tests/examples/test_intelsat5.py). Nothing is shared with depsim.
  *
  * Four joint coordinates, the hinge angles theta1..4 (docs/examples.md): absolute angles
  * phi = A theta + c, each member's centre of mass a sum along the chain, so
