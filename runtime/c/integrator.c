@@ -209,6 +209,34 @@ static void tangential_error(dep_run *run, const dep_outcome *outcome)
 
 static const double DEFECT_POINTS[3] = {0.25, 0.5, 0.75};
 
+/* qd (nq, in place) at q inside the step moved onto the rows' velocity level, J qd = -Phi_t,
+   M-orthogonally: the dense output between the passes' corrections leaves the rows by the
+   multipliers' interpolation error, and a hinge rate in a friction's slip band turns a small
+   such excursion into a large torque. S is the step end's (its factor at hand). scratch: 2 nc
+   + 2 nq. */
+static void consistent_rates(dep_run *run, const dep_outcome *outcome, const double *q,
+                             double *qd, double t, double *scratch)
+{
+    int nq = run->nq, nc = run->cs.nc;
+    double *r = scratch, *mu = r + nc, *column = mu + nc, *solved = column + nq;
+    if (nc == 0) {
+        return;
+    }
+    dep_cs_jacobian(&run->cs, q, t, run->dense_J);
+    dep_cs_phi_t(&run->cs, q, t, r);
+    dep_cs_times(&run->cs, run->dense_J, qd, mu);
+    for (int i = 0; i < nc; ++i) {
+        r[i] += mu[i];
+    }
+    if (dep_schur_solve(&run->stepper.mp, outcome->J1, outcome->J1_id, nc, r, mu)) {
+        dep_cs_transpose_times(&run->cs, run->dense_J, mu, column);
+        dep_mass_solve(&run->system.mass, column, solved);
+        for (int j = 0; j < nq; ++j) {
+            qd[j] -= solved[j];
+        }
+    }
+}
+
 /* The interpolation errors inside the step (docs/method.md, 4), weighted (1: at tolerance).
    e->lam: the position excursion h^2 integral (1 - s) |e(s)| ds G Phi_q^T D that the
    multipliers' profile error e(t) = D prod_j (t - t_j) causes (D: dep_divided_difference),
@@ -254,6 +282,7 @@ static void interpolation_errors(dep_run *run, const dep_outcome *outcome,
     if (!outcome->prescribed) {
         return;
     }
+    dep_stepper_use_mobility(&run->stepper, DEP_ACCELERATION);
     double *D = run->friction_d, *law = run->friction_table, *prescribed = law + nh;
     double hn = pow(h, friction->nodes + 1);
     memset(D, 0, (size_t)nh * sizeof *D);
@@ -264,11 +293,12 @@ static void interpolation_errors(dep_run *run, const dep_outcome *outcome,
     dep_dense_points(outcome->rk, 3, times, 0, 2 * nq, y);
     for (int k = 0; k < 3; ++k) { /* the law along the step's trajectory against the profile */
         double u = DEFECT_POINTS[k], shape = u - 1.0;
-        const double *q = y + (size_t)k * 2 * nq;
+        double *q = y + (size_t)k * 2 * nq, *qd = q + nq;
         for (int j = 0; j < friction->nodes; ++j) {
             shape *= u - friction->u[j];
         }
-        dep_friction_law(system, q, q + nq, law);
+        consistent_rates(run, outcome, q, qd, times[k], projection);
+        dep_friction_law(system, q, qd, law);
         dep_profile_value(friction, outcome->friction, times[k], nh, prescribed);
         for (int i = 0; i < nh; ++i) {
             double d = (law[i] - prescribed[i]) / (hn * shape);
@@ -278,7 +308,6 @@ static void interpolation_errors(dep_run *run, const dep_outcome *outcome,
     system->model->hinge_jacobian(new->q, system->p, system->hinge_jacobian);
     dep_hinge_transpose_times(system, system->hinge_jacobian, D, column);
     dep_mass_solve(&system->mass, column, excursion);
-    dep_stepper_use_mobility(&run->stepper, DEP_ACCELERATION);
     tangential(run, outcome->J1, outcome->J1_id, excursion, projection);
     dep_stepper_use_mobility(&run->stepper, DEP_POSITION);
     double position = pow(h, friction->nodes + 3) * friction->excursion;

@@ -25,14 +25,13 @@
 #include "runtime.h"
 
 #define CONSTRAINT_FRACTION 0.01
-/* A position-pass trial moves the last integration's end linearly (frozen Phi_q) when that
-   moves q and qd by at most LINEAR_MISS / s^2 tolerances, s = h |lambda| the DOPRI step's
-   stiffness estimate: what the linearisation misses is about s^2 of the move, kept as small
-   as the passes' own residuals; at most LINEAR_MOST, and LINEAR_LIMIT for the Rosenbrock step.
-   Larger moves integrate the step again. */
-#define LINEAR_MISS CONSTRAINT_FRACTION
+/* A position-pass trial moves the last integration's end linearly (frozen Phi_q) when what
+   the linearisation misses, about s^2 of the move (s = h |lambda|, the DOPRI step's stiffness
+   estimate), stays within LINEAR_MISS tolerances, the move itself within LINEAR_MOST; the
+   Rosenbrock step, without that estimate, when the move is within LINEAR_MISS. Larger moves
+   integrate the step again. */
+#define LINEAR_MISS 0.1
 #define LINEAR_MOST 10.0
-#define LINEAR_LIMIT 0.1
 #define ROUNDOFF (16 * DEP_EPS)
 #define WEIGHT_MATCH 1e-12 /* end weights (of order 1) this close give the same responses */
 /* The friction torques' end value is settled when the law at the step's end gives it back to
@@ -486,7 +485,7 @@ static int correct_base(dep_stepper *stepper, const double *lam1, dep_rk_step *o
         double rate_scale = stepper->tol * (1.0 + fabs(stepper->base.y1[nq + j]));
         sum += (move / scale) * (move / scale) + (rate / rate_scale) * (rate / rate_scale);
     }
-    double s2 = stepper->base.stiffness * stepper->base.stiffness, limit = LINEAR_LIMIT;
+    double s2 = stepper->base.stiffness * stepper->base.stiffness, limit = LINEAR_MISS;
     if (stepper->base.method == DEP_DOPRI) {
         limit = s2 * LINEAR_MOST > LINEAR_MISS ? LINEAR_MISS / s2 : LINEAR_MOST;
     }
@@ -498,14 +497,15 @@ static int correct_base(dep_stepper *stepper, const double *lam1, dep_rk_step *o
         out->y1[j] += stepper->dq[j];
         out->y1[nq + j] += stepper->dqd[j];
     }
-    if (stepper->prescribed) { /* each friction's work, -tau rate: d tau l(u) at the end rate */
+    if (stepper->prescribed) { /* each friction's work: -tau d(theta), -d(tau) l(u) rate dt */
         const dep_system *system = stepper->system;
-        double *work = out->y1 + 2 * nq + system->model->nd;
+        double *work = out->y1 + 2 * nq + system->model->nd, *turn = stepper->friction_now;
         system->model->hinge_rates(out->y1, out->y1 + nq, system->p, stepper->law);
+        system->model->hinge_rates(out->y1, stepper->dq, system->p, turn);
         for (int i = 0, k = 0; i < system->nh; ++i) {
             if (system->hinges[i].has_friction) {
-                work[k++] -= stepper->h * stepper->profile.velocity * stepper->residual[i]
-                             * stepper->law[i];
+                work[k++] -= stepper->friction_end[i] * turn[i] + stepper->h
+                             * stepper->profile.velocity * stepper->residual[i] * stepper->law[i];
             }
         }
     }
