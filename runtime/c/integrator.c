@@ -207,7 +207,8 @@ static void tangential_error(dep_run *run, const dep_outcome *outcome)
     }
 }
 
-static const double DEFECT_POINTS[3] = {0.25, 0.5, 0.75};
+#define DEFECTS 3
+static const double DEFECT_POINTS[DEFECTS] = {0.25, 0.5, 0.75};
 
 /* qd (nq, in place) at q inside the step moved onto the rows' velocity level, J qd = -Phi_t,
    M-orthogonally: the dense output between the passes' corrections leaves the rows by the
@@ -286,12 +287,12 @@ static void interpolation_errors(dep_run *run, const dep_outcome *outcome,
     double *D = run->friction_d, *law = run->friction_table, *prescribed = law + nh;
     double hn = pow(h, friction->nodes + 1);
     memset(D, 0, (size_t)nh * sizeof *D);
-    double times[3], *y = run->tangent; /* 3 x 2 nq: (q, qd) at each time */
-    for (int k = 0; k < 3; ++k) {
+    double times[DEFECTS], *y = run->tangent; /* DEFECTS x 2 nq: (q, qd) at each time */
+    for (int k = 0; k < DEFECTS; ++k) {
         times[k] = start->t + DEFECT_POINTS[k] * h;
     }
-    dep_dense_points(outcome->rk, 3, times, 0, 2 * nq, y);
-    for (int k = 0; k < 3; ++k) { /* the law along the step's trajectory against the profile */
+    dep_dense_points(outcome->rk, DEFECTS, times, 0, 2 * nq, y);
+    for (int k = 0; k < DEFECTS; ++k) { /* the law along the step's trajectory against the profile */
         double u = DEFECT_POINTS[k], shape = u - 1.0;
         double *q = y + (size_t)k * 2 * nq, *qd = q + nq;
         for (int j = 0; j < friction->nodes; ++j) {
