@@ -207,8 +207,7 @@ static void tangential_error(dep_run *run, const dep_outcome *outcome)
     }
 }
 
-#define DEFECTS 3
-static const double DEFECT_POINTS[DEFECTS] = {0.25, 0.5, 0.75};
+#define DEFECTS 3 /* points inside a step where the friction's defect is measured */
 
 /* qd (nq, in place) at q inside the step moved onto the rows' velocity level, J qd = -Phi_t,
    M-orthogonally: the dense output between the passes' corrections leaves the rows by the
@@ -284,38 +283,35 @@ static void interpolation_errors(dep_run *run, const dep_outcome *outcome,
         return;
     }
     dep_stepper_use_mobility(&run->stepper, DEP_ACCELERATION);
-    double *D = run->friction_d, *law = run->friction_table, *prescribed = law + nh;
-    double hn = pow(h, friction->nodes + 1);
-    memset(D, 0, (size_t)nh * sizeof *D);
-    double times[DEFECTS], *y = run->tangent; /* DEFECTS x 2 nq: (q, qd) at each time */
+    double *defect = run->friction_d, *law = run->friction_table, *prescribed = law + nh;
+    double *sum = prescribed + nh, times[DEFECTS], *y = run->tangent; /* DEFECTS x (q, qd) */
+    memset(defect, 0, (size_t)nh * sizeof *defect);
+    memset(sum, 0, (size_t)nh * sizeof *sum);
     for (int k = 0; k < DEFECTS; ++k) {
-        times[k] = start->t + DEFECT_POINTS[k] * h;
+        times[k] = start->t + (k + 1.0) / (DEFECTS + 1.0) * h;
     }
     dep_dense_points(outcome->rk, DEFECTS, times, 0, 2 * nq, y);
     for (int k = 0; k < DEFECTS; ++k) { /* the law along the step's trajectory against the profile */
-        double u = DEFECT_POINTS[k], shape = u - 1.0;
         double *q = y + (size_t)k * 2 * nq, *qd = q + nq;
-        for (int j = 0; j < friction->nodes; ++j) {
-            shape *= u - friction->u[j];
-        }
         consistent_rates(run, outcome, q, qd, times[k], projection);
         dep_friction_law(system, q, qd, law);
         dep_profile_value(friction, outcome->friction, times[k], nh, prescribed);
-        for (int i = 0; i < nh; ++i) {
-            double d = (law[i] - prescribed[i]) / (hn * shape);
-            D[i] = fabs(d) > fabs(D[i]) ? d : D[i];
+        for (int i = 0; i < nh; ++i) { /* trapezoids, the defect nought at both ends */
+            defect[i] += fabs(law[i] - prescribed[i]) / (DEFECTS + 1.0);
+            sum[i] += law[i] - prescribed[i];
         }
     }
+    for (int i = 0; i < nh; ++i) { /* integral_0^1 |defect| du, signed as its sum */
+        defect[i] = sum[i] < 0.0 ? -defect[i] : defect[i];
+    }
     system->model->hinge_jacobian(new->q, system->p, system->hinge_jacobian);
-    dep_hinge_transpose_times(system, system->hinge_jacobian, D, column);
+    dep_hinge_transpose_times(system, system->hinge_jacobian, defect, column);
     dep_mass_solve(&system->mass, column, excursion);
     tangential(run, outcome->J1, outcome->J1_id, excursion, projection);
     dep_stepper_use_mobility(&run->stepper, DEP_POSITION);
-    double position = pow(h, friction->nodes + 3) * friction->excursion;
-    double velocity = pow(h, friction->nodes + 2) * friction->drift;
-    for (int j = 0; j < nq; ++j) {
-        move[j] = position * excursion[j];
-        move[nq + j] = velocity * excursion[j];
+    for (int j = 0; j < nq; ++j) { /* h^2 integral (1 - u) |defect|, h integral |defect| */
+        move[j] = 0.5 * h * h * excursion[j];
+        move[nq + j] = h * excursion[j];
     }
     e->friction = dep_rms(move, scale, 2 * nq) * sqrt(2.0 * nq / run->ny);
     e->friction_order = friction->nodes + 2;
