@@ -340,6 +340,7 @@ typedef struct dep_outcome {
     double *friction;
     double friction_rate;    /* max_k C_k (J_h Mc^-1 J_h^T)_kk (1/s): its fastest damping */
     int friction_hinge;      /* the hinge k of that damping */
+    int friction_coupled;    /* hinges whose damping mattered to the end value's Newton step */
 } dep_outcome;
 
 typedef struct dep_stepper {
@@ -382,12 +383,11 @@ typedef struct dep_stepper {
     dep_profile friction_profile;
     double *friction_end, *friction_base, *friction_now; /* nh: end value, base's, at t */
     double *base_Jh, *Jh;   /* nhnz: J_h at the base's end, at the new state */
-    double *law, *residual; /* nh */
-    int *free_hinges, n_free; /* the hinges whose friction can act */
+    double *law, *residual, *residual_end, *slope, *law_scratch, *dtau; /* nh */
+    double *lam_shift;      /* capacity */
+    int *free_hinges, n_free; /* the coupled hinges: damping that matters at this step */
     double *mobile;         /* n_free x nq: Mc^-1 J_h^T e_k, constrained M^-1 at the end */
-    double *mobile_lam;     /* n_free x capacity: S^-1 J M^-1 J_h^T e_k */
-    double *newton;         /* n_free x n_free, n_free: I + h V C J_h Mc^-1 J_h^T, scratch */
-    double *dtau;
+    double *newton;         /* n_free x n_free: I + h V C J_h Mc^-1 J_h^T */
     double friction_rate;   /* max_k C_k (J_h Mc^-1 J_h^T)_kk at the last round 0 (1/s) */
     int friction_hinge;     /* its hinge */
 } dep_stepper;

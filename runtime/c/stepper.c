@@ -39,6 +39,9 @@
    errors); FRICTION_ROUNDS end values are tried before the step fails. */
 #define FRICTION_LIMIT CONSTRAINT_FRACTION
 #define FRICTION_ROUNDS 8
+/* A hinge whose friction's damping, times h, stays below this on its own inertia (an upper
+   bound of its effect on the mechanism) takes its law's value without Newton coupling. */
+#define FRICTION_WEAK 1e-3
 
 /* The passes' iteration tolerance for an integration tolerance tol (constraint_tolerance). */
 double dep_constraint_tolerance(double tol)
@@ -102,7 +105,7 @@ int dep_stepper_init(dep_stepper *stepper, const dep_system *system, dep_constra
         *vectors[i] = dep_doubles(arena, (size_t)ny);
     }
     double **rows[] = {&stepper->rhs_lam, &stepper->base_lam, &stepper->phi_t1,
-                       &stepper->lam_pos, &stepper->lam_solved};
+                       &stepper->lam_pos, &stepper->lam_solved, &stepper->lam_shift};
     for (size_t i = 0; i < sizeof rows / sizeof *rows; ++i) {
         *rows[i] = dep_doubles(arena, (size_t)capacity);
     }
@@ -129,7 +132,8 @@ int dep_stepper_init(dep_stepper *stepper, const dep_system *system, dep_constra
     size_t nh = (size_t)system->nh + 1, nhnz = (size_t)system->model->nhnz + 1;
     double **hinge_rows[] = {&stepper->friction_end, &stepper->friction_base,
                              &stepper->friction_now, &stepper->law, &stepper->residual,
-                             &stepper->dtau};
+                             &stepper->dtau, &stepper->slope, &stepper->residual_end,
+                             &stepper->law_scratch};
     for (size_t i = 0; i < sizeof hinge_rows / sizeof *hinge_rows; ++i) {
         *hinge_rows[i] = dep_doubles(arena, nh);
     }
@@ -137,7 +141,6 @@ int dep_stepper_init(dep_stepper *stepper, const dep_system *system, dep_constra
     stepper->Jh = dep_doubles(arena, nhnz);
     stepper->free_hinges = dep_bytes(arena, nh * sizeof *stepper->free_hinges);
     stepper->mobile = dep_doubles(arena, (size_t)system->n_friction * (size_t)nq + 1);
-    stepper->mobile_lam = dep_doubles(arena, (size_t)system->n_friction * (size_t)capacity + 1);
     stepper->newton = dep_doubles(arena, (size_t)system->n_friction
                                          * (size_t)(system->n_friction + 1) + 1);
     stepper->implicit = 0;
@@ -577,42 +580,81 @@ static void finish_step(dep_stepper *stepper, const dep_state *state, dep_outcom
 
 /* ---- friction prescribed over the step ----------------------------------------------------- */
 
-/* The hinges whose friction can act now, and for each (k) the velocity response at the step's
-   end to a unit change of its friction's end value, per h V, once the velocity pass has
-   restored the rows: Mc^-1 J_h^T e_k, Mc^-1 = M^-1 - M^-1 J^T S^-1 J M^-1 (J: Phi_q at the
-   end; M^-1 alone where S is singular); and the change of lambda_{i+1} that restores the rows,
-   S^-1 J M^-1 J_h^T e_k (for frozen Phi_q the same in every pass). */
-static void friction_mobility(dep_stepper *stepper, const double *q1, const dep_measurement *pos)
+/* out (nq) = Mc^-1 J_h^T tau, the end velocity's response per h V to friction end values
+   changed by tau (nh) once the passes restore the rows, Mc^-1 = M^-1 - M^-1 J^T S^-1 J M^-1
+   (J: Phi_q at the end, J_h: stepper->Jh; M^-1 alone where S is singular); lam (nc, or NULL)
+   the change of lambda_{i+1} that restores them, S^-1 J M^-1 J_h^T tau. */
+static void constrained_response(dep_stepper *stepper, const dep_measurement *pos,
+                                 const double *tau, double *out, double *lam)
 {
     const dep_system *system = stepper->system;
     dep_constraints *cs = stepper->constraints;
-    int nq = stepper->nq, nc = cs->nc, nh = system->nh;
+    int nq = stepper->nq, nc = cs->nc;
+    double *solved = lam != NULL ? lam : stepper->lam_solved;
+    dep_hinge_transpose_times(system, stepper->Jh, tau, stepper->column);
+    dep_mass_solve(&system->mass, stepper->column, out);
+    memset(solved, 0, (size_t)nc * sizeof *solved);
+    if (nc == 0) {
+        return;
+    }
+    dep_cs_times(cs, pos->J, out, stepper->rhs_lam);
+    if (dep_schur_solve(&stepper->mp, pos->J, pos->jacobian_id, nc, stepper->rhs_lam, solved)) {
+        dep_cs_transpose_times(cs, pos->J, solved, stepper->column);
+        dep_mass_solve(&system->mass, stepper->column, stepper->force);
+        for (int j = 0; j < nq; ++j) {
+            out[j] -= stepper->force[j];
+        }
+    } else {
+        memset(solved, 0, (size_t)nc * sizeof *solved);
+    }
+}
+
+/* At round 0: J_h at the new state, the hinges whose friction can act (free), each one's law
+   damping C_k and an upper bound of its rate on the mechanism, C_k (J_h M^-1 J_h^T)_kk (Mc^-1
+   <= M^-1); the coupled ones, whose bound times h exceeds FRICTION_WEAK, get their exact
+   response columns Mc^-1 J_h^T e_k (mobile), and friction_rate max_k C_k (J_h Mc^-1 J_h^T)_kk
+   over them (else the largest bound). */
+static void friction_mobility(dep_stepper *stepper, const double *q1, const dep_measurement *pos,
+                              const double *slope)
+{
+    const dep_system *system = stepper->system;
+    int nq = stepper->nq, nh = system->nh;
+    double *unit = stepper->residual, *bound = stepper->dtau;
     system->model->hinge_jacobian(q1, system->p, stepper->Jh);
+    memset(unit, 0, (size_t)nh * sizeof *unit);
     stepper->n_free = 0;
+    stepper->friction_rate = 0.0;
+    stepper->friction_hinge = -1;
     for (int i = 0; i < nh; ++i) {
         const dep_hinge_mechanics *h = &system->hinges[i];
-        if (h->has_friction && h->kinetic != 0.0 && !dep_hinge_locked(h) && !h->stuck) {
+        bound[i] = 0.0;
+        if (!h->has_friction || h->kinetic == 0.0 || dep_hinge_locked(h) || h->stuck
+            || slope[i] == 0.0) {
+            continue;
+        }
+        unit[i] = 1.0; /* (J_h M^-1 J_h^T)_ii */
+        dep_hinge_transpose_times(system, stepper->Jh, unit, stepper->column);
+        dep_mass_solve(&system->mass, stepper->column, stepper->force);
+        system->model->hinge_rates(q1, stepper->force, system->p, stepper->friction_now);
+        unit[i] = 0.0;
+        bound[i] = slope[i] * stepper->friction_now[i];
+        if (stepper->h * bound[i] > FRICTION_WEAK) {
             stepper->free_hinges[stepper->n_free++] = i;
+        } else if (bound[i] > stepper->friction_rate) {
+            stepper->friction_rate = bound[i];
+            stepper->friction_hinge = i;
         }
     }
     for (int k = 0; k < stepper->n_free; ++k) {
+        int i = stepper->free_hinges[k];
         double *out = stepper->mobile + (size_t)k * (size_t)nq;
-        double *lam = stepper->mobile_lam + (size_t)k * (size_t)cs->capacity;
-        memset(lam, 0, (size_t)nc * sizeof *lam);
-        memset(stepper->residual, 0, (size_t)nh * sizeof *stepper->residual);
-        stepper->residual[stepper->free_hinges[k]] = 1.0;
-        dep_hinge_transpose_times(system, stepper->Jh, stepper->residual, stepper->column);
-        dep_mass_solve(&system->mass, stepper->column, out);
-        if (nc == 0) {
-            continue;
-        }
-        dep_cs_times(cs, pos->J, out, stepper->rhs_lam);
-        if (dep_schur_solve(&stepper->mp, pos->J, pos->jacobian_id, nc, stepper->rhs_lam, lam)) {
-            dep_cs_transpose_times(cs, pos->J, lam, stepper->column);
-            dep_mass_solve(&system->mass, stepper->column, stepper->force);
-            for (int j = 0; j < nq; ++j) {
-                out[j] -= stepper->force[j];
-            }
+        unit[i] = 1.0;
+        constrained_response(stepper, pos, unit, out, NULL);
+        unit[i] = 0.0;
+        system->model->hinge_rates(q1, out, system->p, stepper->friction_now);
+        if (slope[i] * stepper->friction_now[i] > stepper->friction_rate) {
+            stepper->friction_rate = slope[i] * stepper->friction_now[i];
+            stepper->friction_hinge = i;
         }
     }
 }
@@ -655,45 +697,29 @@ static void solve_small(int n, double *A, double *b)
 
 /* After the velocity pass of round `round`: 1 when the friction law at the new state (q1, qd1)
    gives back the end value the step prescribed, to within FRICTION_LIMIT tolerances of the
-   difference's effect on the end state; else 0, with the end value moved by Newton's step for
-   law(rate(tau_end)) = tau_end, the rates' response h V J_h Mc^-1 J_h^T d(tau_end) (C: the
-   law's damping -d law / d rate). */
+   difference r's effect on the end state (h^2 P and h V times Mc^-1 J_h^T r); else 0, with
+   the end value moved by Newton's step for law(rate(tau_end)) = tau_end, the rates' response
+   being h V J_h Mc^-1 J_h^T d(tau_end) and the law's damping C = -d law / d rate: the coupled
+   hinges F solve (I + h V C_F G_FF) d_F = r_F - h V C_F J_h,F Mc^-1 J_h^T r_Z with
+   G = J_h Mc^-1 J_h^T, the others (Z, damping too weak to matter) take d_Z = r_Z; and
+   lambda_{i+1} moves with d so that the rows stay restored. */
 static int friction_settled(dep_stepper *stepper, const double *q1, const double *qd1,
                             int round, const dep_measurement *pos)
 {
     const dep_system *system = stepper->system;
-    int nq = stepper->nq, nf;
+    int nq = stepper->nq, nh = system->nh, nc = stepper->constraints->nc, nf;
     double h = stepper->h, V = stepper->profile.velocity, P = stepper->profile.position;
-    double sum = 0.0, *G = stepper->newton, *slope;
-    dep_friction_law(system, q1, qd1, stepper->law);
+    double sum = 0.0, *G = stepper->newton, *slope = stepper->slope, *r = stepper->residual_end;
+    dep_friction_law(system, q1, qd1, stepper->law); /* leaves the rates in system->rates */
+    for (int i = 0; i < nh; ++i) {
+        const dep_hinge_mechanics *hinge = &system->hinges[i];
+        r[i] = stepper->law[i] - stepper->friction_end[i];
+        slope[i] = hinge->has_friction ? -dep_friction_slope(hinge, system->rates[i]) : 0.0;
+    }
     if (round == 0) {
-        friction_mobility(stepper, q1, pos);
+        friction_mobility(stepper, q1, pos, slope);
     }
-    nf = stepper->n_free;
-    slope = G + (size_t)nf * (size_t)nf;
-    memset(stepper->dqd, 0, (size_t)nq * sizeof *stepper->dqd);
-    for (int k = 0; k < nf; ++k) {
-        int i = stepper->free_hinges[k];
-        const double *mobile = stepper->mobile + (size_t)k * (size_t)nq;
-        stepper->dtau[k] = stepper->law[i] - stepper->friction_end[i];
-        slope[k] = -dep_friction_slope(&system->hinges[i], system->rates[i]);
-        for (int j = 0; j < nq; ++j) {
-            stepper->dqd[j] += mobile[j] * stepper->dtau[k];
-        }
-    }
-    if (round == 0) { /* the fastest damping: C_k (J_h Mc^-1 J_h^T)_kk */
-        stepper->friction_rate = 0.0;
-        stepper->friction_hinge = -1;
-        for (int k = 0; k < nf; ++k) {
-            int i = stepper->free_hinges[k];
-            system->model->hinge_rates(q1, stepper->mobile + (size_t)k * (size_t)nq, system->p,
-                                       stepper->residual);
-            if (slope[k] * stepper->residual[i] > stepper->friction_rate) {
-                stepper->friction_rate = slope[k] * stepper->residual[i];
-                stepper->friction_hinge = i;
-            }
-        }
-    }
+    constrained_response(stepper, pos, r, stepper->dqd, NULL);
     for (int j = 0; j < nq; ++j) { /* the moves of q and qd in tolerance units */
         double move = h * h * P * stepper->dqd[j] / (stepper->tol * (1.0 + fabs(q1[j])));
         double rate = h * V * stepper->dqd[j] / (stepper->tol * (1.0 + fabs(qd1[j])));
@@ -702,21 +728,38 @@ static int friction_settled(dep_stepper *stepper, const double *q1, const double
     if (sqrt(sum / (2 * nq)) <= FRICTION_LIMIT) {
         return 1;
     }
-    for (int k = 0; k < nf; ++k) { /* column k: h V C J_h Mc^-1 J_h^T e_k, then I */
-        system->model->hinge_rates(q1, stepper->mobile + (size_t)k * (size_t)nq, system->p,
-                                   stepper->residual);
-        for (int r = 0; r < nf; ++r) {
-            G[r * nf + k] = h * V * slope[r] * stepper->residual[stepper->free_hinges[r]]
-                            + (r == k ? 1.0 : 0.0);
-        }
-    }
-    solve_small(nf, G, stepper->dtau);
+    nf = stepper->n_free;
+    double *d = stepper->dtau, *rZ = stepper->friction_now;
+    memcpy(rZ, r, (size_t)nh * sizeof *rZ);
     for (int k = 0; k < nf; ++k) {
-        const double *lam = stepper->mobile_lam + (size_t)k * (size_t)stepper->capacity;
-        stepper->friction_end[stepper->free_hinges[k]] += stepper->dtau[k];
-        for (int i = 0; i < stepper->constraints->nc; ++i) {
-            stepper->lam_pos[i] += lam[i] * stepper->dtau[k];
+        rZ[stepper->free_hinges[k]] = 0.0;
+    }
+    if (nf > 0) { /* the coupled hinges' Newton system, with the others' effect on them */
+        constrained_response(stepper, pos, rZ, stepper->dqd, NULL);
+        system->model->hinge_rates(q1, stepper->dqd, system->p, stepper->law_scratch);
+        for (int a = 0; a < nf; ++a) {
+            int i = stepper->free_hinges[a];
+            d[a] = r[i] - h * V * slope[i] * stepper->law_scratch[i];
         }
+        for (int b = 0; b < nf; ++b) { /* column b: h V C_F J_h,F Mc^-1 J_h^T e_b, then I */
+            system->model->hinge_rates(q1, stepper->mobile + (size_t)b * (size_t)nq,
+                                       system->p, stepper->law_scratch);
+            for (int a = 0; a < nf; ++a) {
+                int i = stepper->free_hinges[a];
+                G[a * nf + b] = h * V * slope[i] * stepper->law_scratch[i] + (a == b ? 1.0 : 0.0);
+            }
+        }
+        solve_small(nf, G, d);
+    }
+    for (int k = 0; k < nf; ++k) { /* the whole step d: d_F solved, d_Z = r_Z */
+        rZ[stepper->free_hinges[k]] = d[k];
+    }
+    for (int i = 0; i < nh; ++i) {
+        stepper->friction_end[i] += rZ[i];
+    }
+    constrained_response(stepper, pos, rZ, stepper->dqd, stepper->lam_shift);
+    for (int i = 0; i < nc; ++i) {
+        stepper->lam_pos[i] += stepper->lam_shift[i];
     }
     return 0;
 }
@@ -849,6 +892,7 @@ int dep_step(dep_stepper *stepper, const dep_state *state, const dep_profile *pr
             memcpy(outcome->friction, stepper->law, (size_t)system->nh * sizeof(double));
             outcome->friction_rate = stepper->friction_rate;
             outcome->friction_hinge = stepper->friction_hinge;
+            outcome->friction_coupled = stepper->n_free;
         } else {
             dep_friction_law(system, outcome->state.q, outcome->state.qd, outcome->friction);
         }
