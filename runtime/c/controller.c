@@ -117,7 +117,7 @@ static void set_inverse(dep_profile *profile)
 
 /* The profile of a step of size h from the last accepted point: after a (re)start with one
    accepted multiplier, linear; with more, the polynomial through all but the oldest of them
-   (so that the oldest measures its error, dep_interpolation_error), up to `most` nodes (a
+   (so that the oldest measures its error, dep_divided_difference), up to `most` nodes (a
    polynomial of that degree; at most DEP_PROFILE_NODES, a cubic). */
 void dep_profile_set(dep_profile *profile, const dep_history *history, double h, int most)
 {
@@ -134,7 +134,7 @@ void dep_profile_set(dep_profile *profile, const dep_history *history, double h,
         profile->lam[j] = history->lam[k];
     }
     set_inverse(profile);
-    profile->position = profile->velocity = profile->excursion = profile->drift = 0.0;
+    profile->position = profile->velocity = profile->excursion = 0.0;
     for (int g = 0; g < 3; ++g) {
         double s = NODES[g], product = s - 1.0;
         basis(profile, s, w);
@@ -144,7 +144,6 @@ void dep_profile_set(dep_profile *profile, const dep_history *history, double h,
             product *= s - profile->u[j];
         }
         profile->excursion += PLAIN[g] * (1.0 - s) * fabs(product);
-        profile->drift += PLAIN[g] * fabs(product);
     }
 }
 
@@ -160,7 +159,6 @@ void dep_profile_hold(dep_profile *profile, double t0, const double *lam)
     profile->position = 1.0 / 6.0;
     profile->velocity = 0.5;
     profile->excursion = 1.0 / 12.0;
-    profile->drift = 1.0 / 6.0;
 }
 
 /* lambda(t) (nc) of the profile with end value lam_end. */

@@ -208,6 +208,9 @@ static void tangential_error(dep_run *run, const dep_outcome *outcome)
 }
 
 #define DEFECTS 3 /* points inside a step where the friction's defect is measured */
+#if DEFECTS > DEP_DENSE_POINTS
+#error "dep_dense_points takes at most DEP_DENSE_POINTS times"
+#endif
 
 /* qd (nq, in place) at q inside the step moved onto the rows' velocity level, J qd = -Phi_t,
    M-orthogonally: the dense output between the passes' corrections leaves the rows by the
@@ -244,13 +247,14 @@ static void consistent_rates(dep_run *run, const dep_outcome *outcome, const dou
    point, the linear profile's end value that the position pass found undercuts the true
    lambda_{i+1} (lam1, from the acceleration pass) by (h^2 / 4) lambda'', so the excursion is
    (h^2 / 6) G Phi_q^T (lam1 - lam_position).
-   e->friction, when the step prescribed the friction torques: what their profile's error
-   e(t) = D prod_j (t - t_j) (t - t_end) leaves in the end state after the passes, the
-   position and velocity moves h^2 integral (1 - s) |e(s)| ds and h integral |e(s)| ds times
-   Mc^-1 J_h^T D (Mc^-1: M^-1 along the tangent space); friction moves the mechanism. D is
-   measured, not extrapolated: the friction law on the step's own trajectory (its dense
-   output) less the profile, at DEFECT_POINTS, the largest. It sees a friction's turn that
-   starts inside the step, which the accepted torques cannot foretell. */
+   e->friction, when the step prescribed the friction torques: the step's trajectory solves
+   the motion perturbed by the defect d(t) = law(rate(t)) - profile(t) along it, which moves
+   the end state by about h integral |d| du in the velocities and half h^2 times that in the
+   positions, times Mc^-1 J_h^T (Mc^-1: M^-1 along the tangent space; friction moves the
+   mechanism). d is measured at DEFECTS points of the step's dense output, its rates first
+   made consistent where a hinge's damping matters, and integrated by trapezoids (nought at
+   both ends). It sees a friction's turn that starts inside the step, which the accepted
+   torques cannot foretell. */
 static void interpolation_errors(dep_run *run, const dep_outcome *outcome,
                                  const double *scale, dep_step_errors *e)
 {

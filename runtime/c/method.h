@@ -268,7 +268,6 @@ typedef struct dep_profile {
     double inverse[DEP_PROFILE_NODES + 1]; /* 1 / prod_{m != j} (u_j - u_m), u_nodes = 1 */
     double position, velocity;
     double excursion; /* integral_0^1 (1 - u) |prod_j (u - u_j) (u - 1)| du */
-    double drift;     /* integral_0^1 |prod_j (u - u_j) (u - 1)| du */
 } dep_profile;
 
 int dep_history_init(dep_history *history, int capacity, dep_arena *arena);
