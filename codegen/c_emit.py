@@ -147,7 +147,7 @@ def c_function(f: FunctionView) -> CFunction:
                    else f"  /* [{s.entry.index[0]}][{s.entry.index[1]}] */")
         for s in f.statements
         if s.result < 0 or not (results[s.result].fill == "NAN" and s.entry.value == "NAN"))
-    declaration = interface.c_declaration(_INTERFACE[f.name])
+    declaration = interface.c_declaration(_INTERFACE[f.name], restrict=True)
     return CFunction(f.name, declaration, f.summary, tuple(unused), tuple(results), statements)
 
 

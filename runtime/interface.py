@@ -227,11 +227,15 @@ _C_ARGUMENTS = {"v": "const double *v", "vd": "const double *vd", "q": "const do
                 "t": "double t", "p": "const double *p"}
 
 
-def c_declaration(function: Function) -> str:
+def c_declaration(function: Function, restrict: bool = False) -> str:
     """The C parameter list of a model function (results last), e.g.
-    `const double *q, double t, const double *p, double *phi`."""
+    `const double *q, double t, const double *p, double *phi`. restrict: the results'
+    pointers `restrict` (a definition's: a result never shares memory with an argument, and
+    the compiler may then keep a loaded q[j] across the stores, so that sin and cos of one
+    angle become one sincos)."""
+    pointer = "double *restrict " if restrict else "double *"
     return ", ".join([_C_ARGUMENTS[a] for a in function.args]
-                     + [f"double *{r.name}" for r in function.results])
+                     + [f"{pointer}{r.name}" for r in function.results])
 
 
 def render_header() -> str:
