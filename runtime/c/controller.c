@@ -20,7 +20,7 @@
 #define PI_ORDER_BETA 0.2 /* the Rosenbrock step's, over the error's power of h */
 #define PI_FLOOR 1e-4
 #define RHO_TARGET 0.2 /* wanted contraction rate of the position pass */
-#define NEWTON_DONE 1e-12 /* a change of log fac this small ends integral_factor's Newton */
+#define NEWTON_DONE 1e-9 /* a change of log fac this small ends integral_factor's Newton */
 
 /* 3-point Gauss-Legendre on [0, 1] (exact for polynomials up to degree 5): the nodes and the
    plain weights. */
@@ -265,12 +265,22 @@ static int terms(const dep_step_errors *e, double size[3], int order[3])
     return e->friction_order > 0 ? 3 : 2;
 }
 
+/* r^n for a small integer power n (the errors' powers of h). */
+static double power(double r, int n)
+{
+    double out = 1.0;
+    for (int k = 0; k < n; ++k) {
+        out *= r;
+    }
+    return out;
+}
+
 static double excess(const dep_step_errors *e, double fac)
 {
     double size[3], sum = -SAFETY;
     int order[3], n = terms(e, size, order);
     for (int k = 0; k < n; ++k) {
-        sum += size[k] * pow(fac, order[k]);
+        sum += size[k] * power(fac, order[k]);
     }
     return sum;
 }
@@ -280,42 +290,45 @@ static double slope(const dep_step_errors *e, double fac)
     double size[3], sum = 0.0;
     int order[3], n = terms(e, size, order);
     for (int k = 0; k < n; ++k) {
-        sum += order[k] * size[k] * pow(fac, order[k]);
+        sum += order[k] * size[k] * power(fac, order[k]);
     }
     return sum;
 }
 
-/* The fac solving excess(fac) = 0 (Newton's method in log fac), within [FAC_MIN, high]. */
+/* The fac solving excess(fac) = 0, clipped to [FAC_MIN, high]. In x = log fac the sum of the
+   terms is increasing and convex, and each term alone reaches SAFETY at x_k = log(SAFETY /
+   size_k) / order_k, so the root is at most min x_k: Newton's method from there (or from
+   log high) approaches it from above without overshooting (one exp a pass, the terms' powers
+   by products). */
 static double integral_factor(const dep_step_errors *e, double high)
 {
-    double start = INFINITY, size[3];
+    double x = log(high), size[3];
     int order[3], n = terms(e, size, order);
-    if (excess(e, high) <= 0.0) {
-        return high;
-    }
-    if (excess(e, FAC_MIN) >= 0.0) {
-        return FAC_MIN;
-    }
     for (int k = 0; k < n; ++k) {
         if (size[k] > 0.0) {
-            start = fmin(start, pow(SAFETY / size[k], 1.0 / order[k]));
+            x = fmin(x, (log(SAFETY) - log(size[k])) / order[k]);
         }
     }
-    double x = log(start); /* Newton's method: the errors at fac = e^x, an exp a term a pass */
-    for (int pass = 0; pass < 6; ++pass) {
-        double sum = -SAFETY, derivative = 0.0;
+    for (int pass = 0; pass < 8 && x > log(FAC_MIN); ++pass) {
+        double r = exp(x), sum = -SAFETY, derivative = 0.0;
         for (int k = 0; k < n; ++k) {
-            double term = size[k] * exp(order[k] * x);
+            double term = size[k] * power(r, order[k]);
             sum += term;
             derivative += order[k] * term;
         }
+        if (sum <= 0.0) { /* at the start: excess(high) <= 0; later: at the root */
+            if (pass == 0) {
+                return high;
+            }
+            break;
+        }
         double dx = sum / derivative;
         x -= dx;
-        if (fabs(dx) < NEWTON_DONE) {
+        if (dx < NEWTON_DONE) {
             break;
         }
     }
-    return exp(x);
+    return fmin(fmax(exp(x), FAC_MIN), high);
 }
 
 /* fac = h_new / h: the factor for which err_lam fac^p + err_ode fac^r = SAFETY, and after an
