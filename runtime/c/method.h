@@ -207,6 +207,8 @@ typedef struct dep_multipliers { /* scratch of the iteration and its Schur-compl
     long long mobility_id, schur_mobility;
     long long schur_id, factorizations;
     int schur_nc, schur_explicit, schur_factored;
+    long long schur_pattern;   /* the rows' pattern (cs->pattern) S was formed for */
+    double *schur_J;           /* the Jacobian's non-zeros S was formed from */
     int schur_envelope;        /* 1: S and L held in envelope form (a diagonal mass matrix) */
     dep_arena *arena;          /* grows S and L (room doubles each) for a wider envelope */
     size_t room;

@@ -23,6 +23,8 @@
 
 #define EXPLICIT_BELOW 96 /* form S (nc x nc) once per Jacobian below this many rows */
 #define CG_RTOL 1e-10
+#define SCHUR_REUSE 1e-6 /* a Jacobian this close (relative) keeps the factor of S */
+#define REUSE_MARGIN 0.1 /* ... and closer when what an update leaves must fall below tol */
 
 const char *const dep_stage_names[3] = {"position", "velocity", "acceleration"};
 
@@ -47,6 +49,7 @@ int dep_multipliers_init(dep_multipliers *mp, const dep_mass *mass,
     mp->envelope = (dep_envelope){0, mp->first, mp->offset, mp->S, mp->L,
                                   dep_doubles(arena, nc + 1)};
     mp->column_start = dep_bytes(arena, (nq + 1) * sizeof *mp->column_start);
+    mp->schur_J = dep_doubles(arena, DEP_JACOBIAN_SIZE(cs->system->model));
     mp->column_rows = dep_bytes(arena, DEP_JACOBIAN_SIZE(cs->system->model) * sizeof(int));
     mp->column_entries = dep_bytes(arena, DEP_JACOBIAN_SIZE(cs->system->model) * sizeof(int));
     mp->column = dep_doubles(arena, nq);
@@ -341,13 +344,47 @@ static int envelope_schur(dep_multipliers *mp, const double *J, int nc)
 
 /* ---- S, its factor and its solves -------------------------------------------------------- */
 
-static void schur_for(dep_multipliers *mp, const double *J, long long id, int nc)
+/* 1 when the factor of S at hand serves the rows J (id): formed for them, or for the same
+   rows and mobility at a Jacobian whose non-zeros all lie within `allowed` times J's largest
+   of J's. An update of (6) by that factor then leaves about `allowed` of the error it
+   removes; the passes' corrections and the friction's end values move a step's end by a few
+   tolerances, so one factorisation serves them all, and the step's error estimates, whose
+   projections it changes as little. */
+static int schur_serves(dep_multipliers *mp, const double *J, long long id, int nc,
+                        double allowed)
+{
+    if (mp->schur_nc != nc || mp->schur_mobility != mp->mobility_id) {
+        return 0;
+    }
+    if (mp->schur_id == id) {
+        return 1;
+    }
+    if (mp->schur_id < 0 || !mp->schur_factored || mp->schur_pattern != mp->cs->pattern) {
+        return 0;
+    }
+    int nnz = mp->cs->row_start[nc];
+    double largest = 0.0, moved = 0.0;
+    for (int k = 0; k < nnz; ++k) {
+        largest = fmax(largest, fabs(mp->schur_J[k]));
+        moved = fmax(moved, fabs(J[k] - mp->schur_J[k]));
+    }
+    if (!(moved <= allowed * largest)) {
+        return 0;
+    }
+    mp->schur_id = id;
+    return 1;
+}
+
+static void schur_for(dep_multipliers *mp, const double *J, long long id, int nc,
+                      double allowed)
 {
     int nq = mp->nq;
-    if (mp->schur_id == id && mp->schur_nc == nc && mp->schur_mobility == mp->mobility_id) {
+    if (schur_serves(mp, J, id, nc, allowed)) {
         return;
     }
     mp->schur_id = id;
+    mp->schur_pattern = mp->cs->pattern;
+    memcpy(mp->schur_J, J, (size_t)mp->cs->row_start[nc] * sizeof *J);
     mp->schur_nc = nc;
     mp->schur_mobility = mp->mobility_id;
     mp->schur_envelope = mp->mass->inverse_diagonal != NULL && mp->mobility == NULL;
@@ -422,7 +459,7 @@ int dep_schur_solve(dep_multipliers *mp, const double *J, long long jacobian_id,
                     const double *b, double *x)
 {
     long long iterations = 0;
-    schur_for(mp, J, jacobian_id, nc);
+    schur_for(mp, J, jacobian_id, nc, SCHUR_REUSE);
     int solved = solve_schur(mp, J, nc, b, &iterations);
     memcpy(x, mp->x, (size_t)nc * sizeof *x);
     return solved;
@@ -553,7 +590,9 @@ int dep_iterate_multipliers(dep_multipliers *mp, int stage, double *lam, int nc,
                      DEP_MAX_ITERATIONS);
             return fail(stage, current, nc, reason, failure);
         }
-        schur_for(mp, current->J, current->jacobian_id, nc);
+        /* a factor of a nearby Jacobian while its update still ends within the limit */
+        schur_for(mp, current->J, current->jacobian_id, nc,
+                  fmin(SCHUR_REUSE, REUSE_MARGIN * limit / error));
         if (!solve_schur(mp, current->J, nc, current->v, &report->cg_iterations)) {
             return fail(stage, current, nc, "the multiplier system S = Phi_q M^-1 Phi_q^T is "
                         "singular or inconsistent here (conjugate gradients did not converge)",
