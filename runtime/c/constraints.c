@@ -96,7 +96,7 @@ double dep_cs_product_scale(const dep_constraints *cs, const double *J, const do
         if (isnan(sum)) {
             return sum;
         }
-        largest = fmax(largest, sum);
+        largest = sum > largest ? sum : largest;
     }
     return largest;
 }

@@ -209,6 +209,7 @@ typedef struct dep_multipliers { /* scratch of the iteration and its Schur-compl
     int schur_nc, schur_explicit, schur_factored;
     long long schur_pattern;   /* the rows' pattern (cs->pattern) S was formed for */
     double *schur_J;           /* the Jacobian's non-zeros S was formed from */
+    double schur_J_largest;    /* and the largest of them in size */
     int schur_envelope;        /* 1: S and L held in envelope form (a diagonal mass matrix) */
     dep_arena *arena;          /* grows S and L (room doubles each) for a wider envelope */
     size_t room;
