@@ -121,28 +121,23 @@ void dep_dense_points(const dep_rk_step *rk, int points, const double *times, in
         }
         return;
     }
-    double powers[DEP_DENSE_POINTS][4];
-    for (int p = 0; p < points; ++p) {
-        double x = (times[p] - rk->t0) / rk->h;
-        powers[p][0] = x;
-        powers[p][1] = x * x;
-        powers[p][2] = x * x * x;
-        powers[p][3] = (x * x) * (x * x);
-    }
-    for (int j = first; j < first + count; ++j) {
-        double Q[4]; /* (K^T P)[j][c] */
-        for (int c = 0; c < 4; ++c) {
-            Q[c] = 0.0;
-            for (int s = 0; s < 7; ++s) {
-                Q[c] += rk->K[s * n + j] * P[s][c];
-            }
+    for (int p = 0; p < points; ++p) { /* y0 + h sum_s b_s(x) K_s, b_s(x) = sum_c P_sc x^(c+1) */
+        double x = (times[p] - rk->t0) / rk->h, weight[7];
+        for (int stage = 0; stage < 7; ++stage) {
+            const double *c = P[stage];
+            weight[stage] = rk->h * x * (c[0] + x * (c[1] + x * (c[2] + x * c[3])));
         }
-        for (int p = 0; p < points; ++p) {
-            double sum = 0.0;
-            for (int c = 0; c < 4; ++c) {
-                sum += Q[c] * powers[p][c];
+        double *row = out + (size_t)p * count;
+        for (int j = 0; j < count; ++j) {
+            row[j] = rk->y0[first + j];
+        }
+        for (int stage = 0; stage < 7; ++stage) { /* over the components: contiguous */
+            const double *K = rk->K + (size_t)stage * n + first;
+            if (weight[stage] != 0.0) {
+                for (int j = 0; j < count; ++j) {
+                    row[j] += weight[stage] * K[j];
+                }
             }
-            out[(size_t)p * count + j - first] = rk->y0[j] + rk->h * sum;
         }
     }
 }
