@@ -25,7 +25,11 @@ static void measure_acceleration(void *context, const double *lam, dep_measureme
     for (int j = 0; j < nq; ++j) { /* f - J^T lam */
         w->jt[j] = w->f[j] - w->jt[j];
     }
-    dep_mass_solve(&w->system->mass, w->jt, out->x);
+    if (w->filter != NULL) {
+        w->filter(w->filter_context, w->jt, out->x);
+    } else {
+        dep_mass_solve(&w->system->mass, w->jt, out->x);
+    }
     dep_cs_times(w->cs, a->J, out->x, out->v);
     for (int i = 0; i < nc; ++i) {
         out->v[i] = w->gamma[i] - out->v[i];
@@ -51,6 +55,21 @@ int dep_acceleration_pass(dep_acceleration_work *w, const double *q, const doubl
     if (status == DEP_OK && qdd != NULL) {
         memcpy(qdd, final->x, (size_t)w->system->nq * sizeof *qdd);
     }
+    return status;
+}
+
+int dep_filtered_pass(dep_acceleration_work *w, dep_mobility_function filter, void *context,
+                      const double *J, long long jacobian_id, double *lam, double tol,
+                      dep_pass_report *report, dep_failure *failure)
+{
+    acceleration_pass a = {w, J, jacobian_id};
+    dep_measurement *final = NULL;
+    w->filter = filter;
+    w->filter_context = context;
+    int status = dep_iterate_multipliers(w->mp, DEP_ACCELERATION, lam, w->cs->nc,
+                                         measure_acceleration, &a, 1.0, tol, w->slots, &final,
+                                         report, failure);
+    w->filter = NULL;
     return status;
 }
 

@@ -313,12 +313,21 @@ typedef struct dep_acceleration_work {
     dep_multipliers *mp;
     dep_measurement *slots[2];
     double *f, *jt, *solved, *gamma;
+    /* NULL: accelerations M^-1 (f - J^T lambda); else filter(context, f - J^T lambda, out)
+       (dep_filtered_pass) */
+    dep_mobility_function filter;
+    void *filter_context;
 } dep_acceleration_work;
 
 int dep_acceleration_pass(dep_acceleration_work *w, const double *q, const double *qd,
                           double t, const double *J, long long jacobian_id, double *lam,
                           double *qdd, double tol, dep_pass_report *report,
                           dep_failure *failure);
+/* After dep_acceleration_pass at the same state (its f and gamma): lambda (in: that pass's)
+   for which J G (f - J^T lambda) = gamma, G = filter (mp's mobility must be the same G). */
+int dep_filtered_pass(dep_acceleration_work *w, dep_mobility_function filter, void *context,
+                      const double *J, long long jacobian_id, double *lam, double tol,
+                      dep_pass_report *report, dep_failure *failure);
 
 typedef struct dep_state {
     double t;
@@ -369,6 +378,7 @@ typedef struct dep_stepper {
     int implicit;
     dep_implicit im;
     long long mobility_ids;
+    double *filter_power, *filter_mass; /* nq each: filter_mobility's (W^-1 M)^j W^-1 x, M times it */
     double *dq, *dqd, *column;
     /* The step's response to a unit force on each coordinate the active rows touch:
        slot[j] (-1: untouched), columns + 2 nq slot[j] = (dq, dqd); weight: l(u) at the

@@ -31,6 +31,12 @@
    Rosenbrock step, without that estimate, when the move is within LINEAR_MISS. Larger moves
    integrate the step again. */
 #define LINEAR_MISS 0.1
+/* The filter of the multipliers kept under the linearly implicit step (filter_mobility) leaves
+   an undamped mode's reaction times 1 - (z / (1 + z))^FILTER_ORDER, z = (gamma h omega)^2:
+   off by z^k in the modes the step resolves. With k = 1 (W^-1 alone) or 2, a flexible beam
+   swinging down at fixed steps converged with order 2 where the step has order 3
+   (tests/c/test_core_parts.py); with 3 it keeps order 3. */
+#define FILTER_ORDER 3
 #define LINEAR_MOST 10.0
 #define ROUNDOFF (16 * DEP_EPS)
 #define WEIGHT_MATCH 1e-12 /* end weights (of order 1) this close give the same responses */
@@ -123,6 +129,8 @@ int dep_stepper_init(dep_stepper *stepper, const dep_system *system, dep_constra
     stepper->accel.jt = dep_doubles(arena, (size_t)nq);
     stepper->accel.solved = dep_doubles(arena, (size_t)nq);
     stepper->accel.gamma = dep_doubles(arena, (size_t)capacity);
+    stepper->filter_power = dep_doubles(arena, (size_t)nq);
+    stepper->filter_mass = dep_doubles(arena, (size_t)nq);
     stepper->jt_lam = dep_doubles(arena, (size_t)nq);
     stepper->q1 = dep_doubles(arena, (size_t)nq);
     stepper->restart_J = dep_doubles(arena, DEP_JACOBIAN_SIZE(system->model));
@@ -262,6 +270,38 @@ int dep_acceleration(dep_stepper *stepper, const double *q, const double *qd, do
 {
     return dep_acceleration_pass(&stepper->accel, q, qd, t, J, jacobian_id, lam, qdd,
                                  stepper->constraint_tol, report, failure);
+}
+
+static void filter_mobility(void *context, const double *x, double *out);
+
+/* Under the linearly implicit step, the multipliers the new state keeps (the profile's node
+   at t_{i+1}, docs/method.md, 10): those for which J G (f - J^T lambda) = gamma with G the
+   filter_mobility, from the acceleration pass's; and qdd = M^-1 (f - J^T lambda) at them.
+   The acceleration pass's multipliers carry the reactions of the stiff modes' tol-sized
+   displacements, which the step damps; a profile through them drives those modes, and their
+   reactions come back in the next multipliers: a loop that held the step where h omega_max
+   is about 5 (two_link_flex at 16 elements: 4.3e-5 s). G leaves the modes the step resolves
+   as M^-1 does and the stiff ones out. */
+static int history_multipliers(dep_stepper *stepper, dep_state *new, dep_failure *failure)
+{
+    dep_acceleration_work *w = &stepper->accel;
+    const dep_measurement *pos = stepper->final_position;
+    int nq = stepper->nq;
+    dep_pass_report report;
+    dep_multipliers_set_mobility(&stepper->mp, filter_mobility, stepper,
+                                 stepper->mobility_ids - 2);
+    int status = dep_filtered_pass(w, filter_mobility, stepper, pos->J, pos->jacobian_id,
+                                   new->lam, stepper->constraint_tol, &report, failure);
+    dep_stepper_use_mobility(stepper, DEP_ACCELERATION);
+    if (status != DEP_OK) {
+        return status;
+    }
+    dep_cs_transpose_times(stepper->constraints, pos->J, new->lam, w->jt);
+    for (int j = 0; j < nq; ++j) {
+        w->jt[j] = w->f[j] - w->jt[j];
+    }
+    dep_mass_solve(&stepper->system->mass, w->jt, new->qdd);
+    return DEP_OK;
 }
 
 /* ---- one step ---------------------------------------------------------------------------- */
@@ -446,6 +486,32 @@ static void velocity_mobility(void *context, const double *x, double *out)
     respond(stepper, x);
     for (int j = 0; j < stepper->nq; ++j) {
         out[j] = -stepper->dqd[j] / c;
+    }
+}
+
+/* The acceleration a force x gets with the stiff modes left out (history_multipliers):
+   (1 - (1 - B)^k) M^-1 x with B = W^-1 M, W = M + gamma h D + gamma^2 h^2 K the linearly
+   implicit step's matrix and k = FILTER_ORDER, as the sum over j = 1..k of binomial(k, j)
+   (-1)^(j+1) (W^-1 M)^(j-1) W^-1 x: k solves with W's factor. In an undamped mode of frequency
+   omega, B is 1 / (1 + z), z = (gamma h omega)^2: M^-1 x to z^k in the modes the step
+   resolves, about k / z of it in the stiff ones. */
+static void filter_mobility(void *context, const double *x, double *out)
+{
+    dep_stepper *stepper = context;
+    double *power = stepper->filter_power, *mass = stepper->filter_mass;
+    int nq = stepper->nq;
+    double coefficient = FILTER_ORDER; /* binomial(k, j) (-1)^(j+1), j = 1..k */
+    dep_envelope_solve(&stepper->im.W, x, power);
+    for (int j = 0; j < nq; ++j) {
+        out[j] = coefficient * power[j];
+    }
+    for (int k = 2; k <= FILTER_ORDER; ++k) {
+        coefficient *= -(double)(FILTER_ORDER - k + 1) / k;
+        dep_mass_times(&stepper->system->mass, power, mass);
+        dep_envelope_solve(&stepper->im.W, mass, power);
+        for (int j = 0; j < nq; ++j) {
+            out[j] += coefficient * power[j];
+        }
     }
 }
 
@@ -825,7 +891,7 @@ static int take_step(dep_stepper *stepper, const dep_state *state, const dep_pro
         dep_stepper_set_rhs(stepper, &stepper->profile, new->lam); /* lambda(t0): history */
         stage_force(stepper, state->t, stepper->y0, stepper->im.g0);
         unit_responses(stepper);
-        stepper->mobility_ids += 2;
+        stepper->mobility_ids += 3; /* position, velocity, filter_mobility's */
     }
     for (int round = 0;; ++round) { /* a round for each end value of the friction torques */
         dep_stepper_use_mobility(stepper, DEP_POSITION);
@@ -866,6 +932,9 @@ static int take_step(dep_stepper *stepper, const dep_state *state, const dep_pro
     status = dep_acceleration(stepper, new->q, new->qd, stepper->t1, new->lam,
                               stepper->final_position->J, stepper->final_position->jacobian_id,
                               new->qdd, &outcome->reports[2], failure);
+    if (status == DEP_OK && stepper->implicit) {
+        status = history_multipliers(stepper, new, failure);
+    }
     if (status != DEP_OK) {
         return status;
     }
