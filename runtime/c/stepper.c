@@ -37,6 +37,11 @@
    swinging down at fixed steps converged with order 2 where the step has order 3
    (tests/c/test_core_parts.py); with 3 it keeps order 3. */
 #define FILTER_ORDER 3
+/* Up to this many rows history_multipliers applies the filter to every row's J^T and the net
+   force in one block of solves and solves for the multipliers' change with the n x n matrix
+   J G J^T (one update of (6) with A = (J G J^T)^-1: the condition is linear in lambda); with
+   more, by the iteration (6) with the Schur cache's A. */
+#define FILTER_DIRECT_ROWS 16
 #define LINEAR_MOST 10.0
 #define ROUNDOFF (16 * DEP_EPS)
 #define WEIGHT_MATCH 1e-12 /* end weights (of order 1) this close give the same responses */
@@ -131,6 +136,12 @@ int dep_stepper_init(dep_stepper *stepper, const dep_system *system, dep_constra
     stepper->accel.gamma = dep_doubles(arena, (size_t)capacity);
     stepper->filter_power = dep_doubles(arena, (size_t)nq);
     stepper->filter_mass = dep_doubles(arena, (size_t)nq);
+    if (system->model->nkz > 0) { /* history_multipliers' block (models with stiff forces) */
+        size_t block = (size_t)nq * (FILTER_DIRECT_ROWS + 1);
+        stepper->filter_block = dep_doubles(arena, 4 * block); /* x, G x, two scratch */
+        stepper->filter_S = dep_doubles(arena, FILTER_DIRECT_ROWS * FILTER_DIRECT_ROWS);
+        stepper->filter_rhs = dep_doubles(arena, FILTER_DIRECT_ROWS);
+    }
     stepper->jt_lam = dep_doubles(arena, (size_t)nq);
     stepper->q1 = dep_doubles(arena, (size_t)nq);
     stepper->restart_J = dep_doubles(arena, DEP_JACOBIAN_SIZE(system->model));
@@ -282,21 +293,91 @@ static void filter_mobility(void *context, const double *x, double *out);
    reactions come back in the next multipliers: a loop that held the step where h omega_max
    is about 5 (two_link_flex at 16 elements: 4.3e-5 s). G leaves the modes the step resolves
    as M^-1 does and the stiff ones out. */
+static void solve_small(int n, double *A, double *b);
+
+/* filter_mobility on `count` vectors at once (entry j of vector v at [j count + v]): x into
+   out, through the block's own scratch. */
+static void filter_block(dep_stepper *stepper, int count, const double *x, double *out)
+{
+    const dep_mass *mass = &stepper->system->mass;
+    size_t size = (size_t)stepper->nq * (size_t)count;
+    double *power = stepper->filter_block + 2 * (size_t)stepper->nq * (FILTER_DIRECT_ROWS + 1);
+    double *product = power + (size_t)stepper->nq * (FILTER_DIRECT_ROWS + 1);
+    double coefficient = FILTER_ORDER;
+    dep_envelope_solve_block(&stepper->im.W, count, x, power);
+    for (size_t i = 0; i < size; ++i) {
+        out[i] = coefficient * power[i];
+    }
+    for (int k = 2; k <= FILTER_ORDER; ++k) {
+        coefficient *= -(double)(FILTER_ORDER - k + 1) / k;
+        memset(product, 0, size * sizeof *product);
+        for (int e = 0; e < mass->nnz; ++e) {
+            double m = mass->values[e];
+            const double *from = power + (size_t)mass->cols[e] * (size_t)count;
+            double *to = product + (size_t)mass->rows[e] * (size_t)count;
+            for (int v = 0; v < count; ++v) {
+                to[v] += m * from[v];
+            }
+        }
+        dep_envelope_solve_block(&stepper->im.W, count, product, power);
+        for (size_t i = 0; i < size; ++i) {
+            out[i] += coefficient * power[i];
+        }
+    }
+}
+
 static int history_multipliers(dep_stepper *stepper, dep_state *new, dep_failure *failure)
 {
     dep_acceleration_work *w = &stepper->accel;
     const dep_measurement *pos = stepper->final_position;
-    int nq = stepper->nq;
-    dep_pass_report report;
-    dep_multipliers_set_mobility(&stepper->mp, filter_mobility, stepper,
-                                 stepper->mobility_ids - 2);
-    int status = dep_filtered_pass(w, filter_mobility, stepper, pos->J, pos->jacobian_id,
-                                   new->lam, stepper->constraint_tol, &report, failure);
-    dep_stepper_use_mobility(stepper, DEP_ACCELERATION);
-    if (status != DEP_OK) {
-        return status;
+    const dep_constraints *cs = stepper->constraints;
+    int nq = stepper->nq, nc = cs->nc, count = nc + 1;
+    dep_cs_transpose_times(cs, pos->J, new->lam, w->jt);
+    for (int j = 0; j < nq; ++j) { /* the net force r = M qdd */
+        w->jt[j] = w->f[j] - w->jt[j];
     }
-    dep_cs_transpose_times(stepper->constraints, pos->J, new->lam, w->jt);
+    if (nc <= FILTER_DIRECT_ROWS) { /* G J^T and G r in one block; J G J^T d = J G r - gamma */
+        double *x = stepper->filter_block, *S = stepper->filter_S, *d = stepper->filter_rhs;
+        double *gx = x + (size_t)nq * (FILTER_DIRECT_ROWS + 1);
+        memset(x, 0, (size_t)nq * (size_t)count * sizeof *x);
+        for (int a = 0; a < nc; ++a) {
+            for (int k = cs->row_start[a]; k < cs->row_start[a + 1]; ++k) {
+                x[(size_t)cs->row_cols[k] * (size_t)count + (size_t)a] = pos->J[k];
+            }
+        }
+        for (int j = 0; j < nq; ++j) {
+            x[(size_t)j * (size_t)count + (size_t)nc] = w->jt[j];
+        }
+        filter_block(stepper, count, x, gx);
+        for (int b = 0; b < nc; ++b) {
+            for (int a = 0; a <= nc; ++a) {
+                double sum = 0.0;
+                for (int k = cs->row_start[b]; k < cs->row_start[b + 1]; ++k) {
+                    sum += pos->J[k] * gx[(size_t)cs->row_cols[k] * (size_t)count + (size_t)a];
+                }
+                if (a < nc) {
+                    S[b * nc + a] = sum;
+                } else {
+                    d[b] = sum - w->gamma[b];
+                }
+            }
+        }
+        solve_small(nc, S, d);
+        for (int a = 0; a < nc; ++a) {
+            new->lam[a] += d[a];
+        }
+    } else {
+        dep_pass_report report;
+        dep_multipliers_set_mobility(&stepper->mp, filter_mobility, stepper,
+                                     stepper->mobility_ids - 2);
+        int status = dep_filtered_pass(w, filter_mobility, stepper, pos->J, pos->jacobian_id,
+                                       new->lam, stepper->constraint_tol, &report, failure);
+        dep_stepper_use_mobility(stepper, DEP_ACCELERATION);
+        if (status != DEP_OK) {
+            return status;
+        }
+    }
+    dep_cs_transpose_times(cs, pos->J, new->lam, w->jt);
     for (int j = 0; j < nq; ++j) {
         w->jt[j] = w->f[j] - w->jt[j];
     }
