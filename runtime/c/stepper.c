@@ -1013,8 +1013,8 @@ static int take_step(dep_stepper *stepper, const dep_state *state, const dep_pro
     status = dep_acceleration(stepper, new->q, new->qd, stepper->t1, new->lam,
                               stepper->final_position->J, stepper->final_position->jacobian_id,
                               new->qdd, &outcome->reports[2], failure);
-    if (status == DEP_OK && stepper->implicit) {
-        status = history_multipliers(stepper, new, failure);
+    if (status == DEP_OK && stepper->implicit && stepper->system->model->nkz > 0) {
+        status = history_multipliers(stepper, new, failure); /* (nkz = 0: W = M, G = M^-1) */
     }
     if (status != DEP_OK) {
         return status;
