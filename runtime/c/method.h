@@ -378,7 +378,6 @@ typedef struct dep_stepper {
     int implicit;
     dep_implicit im;
     long long mobility_ids;
-    double *filter_power, *filter_mass; /* nq each: filter_mobility's (W^-1 M)^j W^-1 x, M times it */
     double *filter_block, *filter_S, *filter_rhs; /* history_multipliers' block (stepper.c) */
     double *dq, *dqd, *column;
     /* The step's response to a unit force on each coordinate the active rows touch:

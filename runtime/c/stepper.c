@@ -134,8 +134,6 @@ int dep_stepper_init(dep_stepper *stepper, const dep_system *system, dep_constra
     stepper->accel.jt = dep_doubles(arena, (size_t)nq);
     stepper->accel.solved = dep_doubles(arena, (size_t)nq);
     stepper->accel.gamma = dep_doubles(arena, (size_t)capacity);
-    stepper->filter_power = dep_doubles(arena, (size_t)nq);
-    stepper->filter_mass = dep_doubles(arena, (size_t)nq);
     if (system->model->nkz > 0) { /* history_multipliers' block (models with stiff forces) */
         size_t block = (size_t)nq * (FILTER_DIRECT_ROWS + 1);
         stepper->filter_block = dep_doubles(arena, 4 * block); /* x, G x, two scratch */
@@ -295,8 +293,14 @@ static void filter_mobility(void *context, const double *x, double *out);
    as M^-1 does and the stiff ones out. */
 static void solve_small(int n, double *A, double *b);
 
-/* filter_mobility on `count` vectors at once (entry j of vector v at [j count + v]): x into
-   out, through the block's own scratch. */
+/* The acceleration a force x gets with the stiff modes left out (history_multipliers):
+   (1 - (1 - B)^k) M^-1 x with B = W^-1 M, W = M + gamma h D + gamma^2 h^2 K the linearly
+   implicit step's matrix and k = FILTER_ORDER, as the sum over j = 1..k of binomial(k, j)
+   (-1)^(j+1) (W^-1 M)^(j-1) W^-1 x: k solves with W's factor. In an undamped mode of frequency
+   omega, B is 1 / (1 + z), z = (gamma h omega)^2: M^-1 x to z^k in the modes the step
+   resolves, about k / z of it in the stiff ones.
+   On `count` vectors at once (entry j of vector v at [j count + v]): x into out, through
+   the block's own scratch. */
 static void filter_block(dep_stepper *stepper, int count, const double *x, double *out)
 {
     const dep_mass *mass = &stepper->system->mass;
@@ -570,30 +574,10 @@ static void velocity_mobility(void *context, const double *x, double *out)
     }
 }
 
-/* The acceleration a force x gets with the stiff modes left out (history_multipliers):
-   (1 - (1 - B)^k) M^-1 x with B = W^-1 M, W = M + gamma h D + gamma^2 h^2 K the linearly
-   implicit step's matrix and k = FILTER_ORDER, as the sum over j = 1..k of binomial(k, j)
-   (-1)^(j+1) (W^-1 M)^(j-1) W^-1 x: k solves with W's factor. In an undamped mode of frequency
-   omega, B is 1 / (1 + z), z = (gamma h omega)^2: M^-1 x to z^k in the modes the step
-   resolves, about k / z of it in the stiff ones. */
+/* filter_block on one vector: the mobility of history_multipliers' iteration (more rows). */
 static void filter_mobility(void *context, const double *x, double *out)
 {
-    dep_stepper *stepper = context;
-    double *power = stepper->filter_power, *mass = stepper->filter_mass;
-    int nq = stepper->nq;
-    double coefficient = FILTER_ORDER; /* binomial(k, j) (-1)^(j+1), j = 1..k */
-    dep_envelope_solve(&stepper->im.W, x, power);
-    for (int j = 0; j < nq; ++j) {
-        out[j] = coefficient * power[j];
-    }
-    for (int k = 2; k <= FILTER_ORDER; ++k) {
-        coefficient *= -(double)(FILTER_ORDER - k + 1) / k;
-        dep_mass_times(&stepper->system->mass, power, mass);
-        dep_envelope_solve(&stepper->im.W, mass, power);
-        for (int j = 0; j < nq; ++j) {
-            out[j] += coefficient * power[j];
-        }
-    }
+    filter_block(context, 1, x, out);
 }
 
 void dep_stepper_use_mobility(dep_stepper *stepper, int stage)

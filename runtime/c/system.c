@@ -97,14 +97,6 @@ double dep_mass_quadratic(const dep_mass *mass, const double *x)
     return sum;
 }
 
-void dep_mass_times(const dep_mass *mass, const double *x, double *y)
-{
-    memset(y, 0, (size_t)mass->n * sizeof *y);
-    for (int k = 0; k < mass->nnz; ++k) { /* (MASS_ROWS/COLS hold both triangles) */
-        y[mass->rows[k]] += mass->values[k] * x[mass->cols[k]];
-    }
-}
-
 void dep_mass_solve(const dep_mass *mass, const double *b, double *x)
 {
     int n = mass->n;

@@ -70,7 +70,6 @@ typedef struct dep_mass {
 
 void dep_mass_solve(const dep_mass *mass, const double *b, double *x); /* x = M^-1 b; x may be b */
 double dep_mass_quadratic(const dep_mass *mass, const double *x);     /* x^T M x */
-void dep_mass_times(const dep_mass *mass, const double *x, double *y); /* y = M x (y not x) */
 /* M's envelope (first[i]: row i's first non-zero column) and its lower part into A (zero on
    entry) in envelope form e. */
 void dep_mass_envelope_start(const dep_mass *mass, int *first);
