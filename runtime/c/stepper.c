@@ -283,14 +283,6 @@ int dep_acceleration(dep_stepper *stepper, const double *q, const double *qd, do
 
 static void filter_mobility(void *context, const double *x, double *out);
 
-/* Under the linearly implicit step, the multipliers the new state keeps (the profile's node
-   at t_{i+1}, docs/method.md, 10): those for which J G (f - J^T lambda) = gamma with G the
-   filter_mobility, from the acceleration pass's; and qdd = M^-1 (f - J^T lambda) at them.
-   The acceleration pass's multipliers carry the reactions of the stiff modes' tol-sized
-   displacements, which the step damps; a profile through them drives those modes, and their
-   reactions come back in the next multipliers: a loop that held the step where h omega_max
-   is about 5 (two_link_flex at 16 elements: 4.3e-5 s). G leaves the modes the step resolves
-   as M^-1 does and the stiff ones out. */
 static void solve_small(int n, double *A, double *b);
 
 /* The acceleration a force x gets with the stiff modes left out (history_multipliers):
@@ -330,6 +322,14 @@ static void filter_block(dep_stepper *stepper, int count, const double *x, doubl
     }
 }
 
+/* Under the linearly implicit step, the multipliers the new state keeps (the profile's node
+   at t_{i+1}, docs/method.md, 10): those for which J G (f - J^T lambda) = gamma with G the
+   filter of filter_block, from the acceleration pass's; and qdd = M^-1 (f - J^T lambda) at them.
+   The acceleration pass's multipliers carry the reactions of the stiff modes' tol-sized
+   displacements, which the step damps; a profile through them drives those modes, and their
+   reactions come back in the next multipliers: a loop that held the step where h omega_max
+   is about 5 (two_link_flex at 16 elements: 4.3e-5 s). G leaves the modes the step resolves
+   as M^-1 does and the stiff ones out. */
 static int history_multipliers(dep_stepper *stepper, dep_state *new, dep_failure *failure)
 {
     dep_acceleration_work *w = &stepper->accel;
