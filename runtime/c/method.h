@@ -120,7 +120,7 @@ typedef struct dep_implicit {
     int nq, ny, nkz, damped;
     double *K, *D;          /* nkz, W's: at the start of the step that factorised it */
     double *K_now, *D_now;  /* nkz: at the step's start */
-    double *K_drift, *D_drift; /* nkz: how far K_now, D_now may be from K, D for W to serve */
+    double *K_drift, *D_drift; /* nkz: how far (squared) K_now, D_now may be from K, D for W to serve */
     int *diagonal;          /* nq: where (j, j) sits in the stiffness pattern, -1 if absent */
     int *lower;             /* nkz: where entry k sits in W's envelope, -1 above the diagonal */
     double *mass_envelope;  /* M in W's envelope */
@@ -195,6 +195,16 @@ typedef void (*dep_measure_function)(void *context, const double *lam, dep_measu
 
 typedef void (*dep_mobility_function)(void *context, const double *x, double *out);
 
+/* A small dense factor of S set aside while the passes see another mobility (multipliers.c). */
+typedef struct dep_schur_kept {
+    long long id, mobility, pattern; /* (id -1: none) */
+    int nc;
+    double J_largest;
+    double *S, *L, *diag, *J;
+} dep_schur_kept;
+
+#define DEP_SCHUR_KEPT 3 /* the linearly implicit step's position, velocity and acceleration S */
+
 typedef struct dep_multipliers { /* scratch of the iteration and its Schur-complement cache */
     int nq, capacity;
     const dep_constraints *cs; /* the rows whose Jacobians (their pattern) the passes see */
@@ -211,6 +221,8 @@ typedef struct dep_multipliers { /* scratch of the iteration and its Schur-compl
     double *schur_J;           /* the Jacobian's non-zeros S was formed from */
     double schur_J_largest;    /* and the largest of them in size */
     int schur_envelope;        /* 1: S and L held in envelope form (a diagonal mass matrix) */
+    dep_schur_kept kept[DEP_SCHUR_KEPT]; /* other mobilities' factors; next: the one to reuse */
+    int next_kept;
     dep_arena *arena;          /* grows S and L (room doubles each) for a wider envelope */
     size_t room;
     int *first, *offset;       /* capacity: row a of S spans columns first[a]..a, from offset[a] */
@@ -379,6 +391,8 @@ typedef struct dep_stepper {
     dep_implicit im;
     long long mobility_ids;
     double *filter_block, *filter_S, *filter_rhs; /* history_multipliers' block (stepper.c) */
+    double *filter_JGJ, *filter_J; /* J G J^T kept for the W (filter_id) and J it was made at */
+    long long filter_id, filter_pattern;
     double *dq, *dqd, *column;
     /* The step's response to a unit force on each coordinate the active rows touch:
        slot[j] (-1: untouched), columns + 2 nq slot[j] = (dq, dqd); weight: l(u) at the

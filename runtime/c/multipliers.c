@@ -25,6 +25,11 @@
 #define CG_RTOL 1e-10
 #define SCHUR_REUSE 1e-6 /* a Jacobian this close (relative) keeps the factor of S */
 #define REUSE_MARGIN 0.1 /* ... and closer when what an update leaves must fall below tol */
+/* Under the linearly implicit step the passes see three mobilities (position, velocity: the
+   step's responses; acceleration: M^-1), each for its own S; a dense factor of up to
+   KEPT_ROWS rows is set aside when another mobility's is formed, and taken back while it
+   serves (schur_for). */
+#define KEPT_ROWS 16
 
 const char *const dep_stage_names[3] = {"position", "velocity", "acceleration"};
 
@@ -50,6 +55,14 @@ int dep_multipliers_init(dep_multipliers *mp, const dep_mass *mass,
                                   dep_doubles(arena, nc + 1)};
     mp->column_start = dep_bytes(arena, (nq + 1) * sizeof *mp->column_start);
     mp->schur_J = dep_doubles(arena, DEP_JACOBIAN_SIZE(cs->system->model));
+    for (int k = 0; k < DEP_SCHUR_KEPT; ++k) {
+        dep_schur_kept *kept = &mp->kept[k];
+        kept->id = -1;
+        kept->S = dep_doubles(arena, KEPT_ROWS * KEPT_ROWS);
+        kept->L = dep_doubles(arena, KEPT_ROWS * KEPT_ROWS);
+        kept->diag = dep_doubles(arena, KEPT_ROWS);
+        kept->J = dep_doubles(arena, DEP_JACOBIAN_SIZE(cs->system->model));
+    }
     mp->column_rows = dep_bytes(arena, DEP_JACOBIAN_SIZE(cs->system->model) * sizeof(int));
     mp->column_entries = dep_bytes(arena, DEP_JACOBIAN_SIZE(cs->system->model) * sizeof(int));
     mp->column = dep_doubles(arena, nq);
@@ -374,11 +387,90 @@ static int schur_serves(dep_multipliers *mp, const double *J, long long id, int 
     return 1;
 }
 
+/* Copies a factor's S, L, diagonal and Jacobian (nc rows, nnz non-zeros) between the cache and
+   a kept slot. */
+static void copy_factor(int nc, int nnz, const double *S, const double *L, const double *diag,
+                        const double *J, double *S_to, double *L_to, double *diag_to,
+                        double *J_to)
+{
+    size_t square = (size_t)nc * (size_t)nc * sizeof *S;
+    memcpy(S_to, S, square);
+    memcpy(L_to, L, square);
+    memcpy(diag_to, diag, (size_t)nc * sizeof *diag);
+    memcpy(J_to, J, (size_t)nnz * sizeof *J);
+}
+
+/* Before S is formed for another mobility: the factor at hand set aside, when it is a small
+   dense one (in its mobility's slot, else the next). */
+static void keep_factor(dep_multipliers *mp)
+{
+    if (mp->schur_id < 0 || !mp->schur_factored || !mp->schur_explicit || mp->schur_envelope
+        || mp->schur_nc > KEPT_ROWS || mp->schur_mobility == mp->mobility_id) {
+        return;
+    }
+    int slot = -1;
+    for (int k = 0; k < DEP_SCHUR_KEPT; ++k) {
+        slot = mp->kept[k].mobility == mp->schur_mobility && mp->kept[k].id >= 0 ? k : slot;
+    }
+    if (slot < 0) {
+        slot = mp->next_kept;
+        mp->next_kept = (mp->next_kept + 1) % DEP_SCHUR_KEPT;
+    }
+    dep_schur_kept *kept = &mp->kept[slot];
+    int nc = mp->schur_nc;
+    copy_factor(nc, mp->cs->row_start[nc], mp->S, mp->L, mp->diag, mp->schur_J, kept->S,
+                kept->L, kept->diag, kept->J);
+    kept->id = mp->schur_id;
+    kept->mobility = mp->schur_mobility;
+    kept->pattern = mp->schur_pattern;
+    kept->nc = nc;
+    kept->J_largest = mp->schur_J_largest;
+}
+
+/* A kept factor of this mobility that serves J (as schur_serves) back in the cache; 1 if so. */
+static int take_factor(dep_multipliers *mp, const double *J, long long id, int nc,
+                       double allowed)
+{
+    for (int k = 0; k < DEP_SCHUR_KEPT; ++k) {
+        dep_schur_kept *kept = &mp->kept[k];
+        if (kept->id < 0 || kept->mobility != mp->mobility_id || kept->nc != nc
+            || kept->pattern != mp->cs->pattern) {
+            continue;
+        }
+        int nnz = mp->cs->row_start[nc], serves = kept->id == id;
+        double bound = allowed * kept->J_largest;
+        for (int e = 0; !serves && e < nnz; ++e) {
+            if (!(fabs(J[e] - kept->J[e]) <= bound)) {
+                break;
+            }
+            serves = e == nnz - 1;
+        }
+        if (!serves) {
+            continue;
+        }
+        copy_factor(nc, nnz, kept->S, kept->L, kept->diag, kept->J, mp->S, mp->L, mp->diag,
+                    mp->schur_J);
+        mp->schur_id = id;
+        mp->schur_mobility = kept->mobility;
+        mp->schur_pattern = kept->pattern;
+        mp->schur_nc = nc;
+        mp->schur_J_largest = kept->J_largest;
+        mp->schur_explicit = mp->schur_factored = 1;
+        mp->schur_envelope = 0;
+        return 1;
+    }
+    return 0;
+}
+
 static void schur_for(dep_multipliers *mp, const double *J, long long id, int nc,
                       double allowed)
 {
     int nq = mp->nq;
     if (schur_serves(mp, J, id, nc, allowed)) {
+        return;
+    }
+    keep_factor(mp);
+    if (take_factor(mp, J, id, nc, allowed)) {
         return;
     }
     mp->schur_id = id;

@@ -108,23 +108,26 @@ int dep_implicit_init(dep_implicit *im, const dep_system *system, int ny, dep_ar
     return DEP_OK;
 }
 
-/* drift[k] = DEP_JACOBIAN_DRIFT sqrt(|A_ii A_jj|) for entry k = (i, j) of A on the stiffness
-   pattern (0 where a diagonal entry is absent: A_ij is then 0 for a semi-definite A). */
+/* drift[k] = (DEP_JACOBIAN_DRIFT sqrt(|A_ii A_jj|))^2 for entry k = (i, j) of A on the
+   stiffness pattern (0 where a diagonal entry is absent: A_ij is then 0 for a semi-definite
+   A); squared, so that neither this nor near takes a square root. */
 static void drift_bounds(const dep_implicit *im, const double *A, double *drift)
 {
     const int *rows = im->system->model->stiffness_rows, *cols = im->system->model->stiffness_cols;
+    const double squared = DEP_JACOBIAN_DRIFT * DEP_JACOBIAN_DRIFT;
     for (int k = 0; k < im->nkz; ++k) {
         int di = im->diagonal[rows[k]], dj = im->diagonal[cols[k]];
-        drift[k] = di >= 0 && dj >= 0 ? DEP_JACOBIAN_DRIFT * sqrt(fabs(A[di] * A[dj])) : 0.0;
+        drift[k] = di >= 0 && dj >= 0 ? squared * fabs(A[di] * A[dj]) : 0.0;
     }
 }
 
-/* Whether every entry of `now` is within drift of `held`. */
+/* Whether every entry of `now` is within drift (squared) of `held`. */
 static int near(const dep_implicit *im, const double *held, const double *now,
                 const double *drift)
 {
     for (int k = 0; k < im->nkz; ++k) {
-        if (!(fabs(now[k] - held[k]) <= drift[k])) {
+        double change = now[k] - held[k];
+        if (!(change * change <= drift[k])) { /* (NaN included) */
             return 0;
         }
     }
@@ -283,7 +286,12 @@ void dep_implicit_response(dep_implicit *im, int count, const double *x,
     size_t n = (size_t)im->nq * (size_t)count;
     double h = im->h;
     double *zq = im->sum, *zv = im->sum + n;
-    for (int i = 0; i < 4; ++i) { /* stage i: kq, kv at dk + 2 n i */
+    int first = 0; /* the stages before the first weighted one (the start's: l(0) = 0) */
+    while (first < 4 && weight[first] == 0.0) {
+        ++first;
+    }
+    memset(im->dk, 0, 2 * n * (size_t)first * sizeof *im->dk);
+    for (int i = first; i < 4; ++i) { /* stage i: kq, kv at dk + 2 n i */
         double *kq = im->dk + 2 * n * (size_t)i, *kv = kq + n;
         for (size_t j = 0; j < 2 * n; ++j) {
             double z = 0.0;

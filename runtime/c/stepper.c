@@ -25,12 +25,17 @@
 #include "runtime.h"
 
 #define CONSTRAINT_FRACTION 0.01
-/* A position-pass trial moves the last integration's end linearly (frozen Phi_q) when what
-   the linearisation misses, about s^2 of the move (s = h |lambda|, the DOPRI step's stiffness
-   estimate), stays within LINEAR_MISS tolerances, the move itself within LINEAR_MOST; the
-   Rosenbrock step, without that estimate, when the move is within LINEAR_MISS. Larger moves
-   integrate the step again. */
+/* A position-pass trial moves the last integration's end linearly (frozen Phi_q) instead of
+   integrating the step again while the linearisation is accurate enough for the move:
+   - DOPRI: what it misses is about s^2 of the move (s = h |lambda|, the step's stiffness
+     estimate); that within LINEAR_MISS tolerances, the move itself within LINEAR_MOST.
+   - Rosenbrock: its responses run through the step's own T, so they miss only the force's
+     departure from T (K's drift, up to DEP_JACOBIAN_DRIFT, and the elastic force's
+     nonlinearity; two_link_flex at 16 elements: about a thousandth of the move). The move is
+     measured as the step's error is, in the positions, the velocities' move counted by the
+     positions it makes over a step (h times it); within ROSENBROCK_MOVE tolerances. */
 #define LINEAR_MISS 0.1
+#define ROSENBROCK_MOVE 1.0
 /* The filter of the multipliers kept under the linearly implicit step (filter_mobility) leaves
    an undamped mode's reaction times 1 - (z / (1 + z))^FILTER_ORDER, z = (gamma h omega)^2:
    off by z^k in the modes the step resolves. With k = 1 (W^-1 alone) or 2, a flexible beam
@@ -138,7 +143,10 @@ int dep_stepper_init(dep_stepper *stepper, const dep_system *system, dep_constra
         size_t block = (size_t)nq * (FILTER_DIRECT_ROWS + 1);
         stepper->filter_block = dep_doubles(arena, 4 * block); /* x, G x, two scratch */
         stepper->filter_S = dep_doubles(arena, FILTER_DIRECT_ROWS * FILTER_DIRECT_ROWS);
+        stepper->filter_JGJ = dep_doubles(arena, FILTER_DIRECT_ROWS * FILTER_DIRECT_ROWS);
         stepper->filter_rhs = dep_doubles(arena, FILTER_DIRECT_ROWS);
+        stepper->filter_J = dep_doubles(arena, DEP_JACOBIAN_SIZE(system->model));
+        stepper->filter_id = -1;
     }
     stepper->jt_lam = dep_doubles(arena, (size_t)nq);
     stepper->q1 = dep_doubles(arena, (size_t)nq);
@@ -322,6 +330,39 @@ static void filter_block(dep_stepper *stepper, int count, const double *x, doubl
     }
 }
 
+/* J G J^T (stepper->filter_JGJ, row-major) for the active rows at J: every row's G J^T in one
+   block of solves, kept while W and the rows' Jacobian stay the same (pins between beam
+   nodes have a constant one), so that a step mostly filters its net force alone. */
+static void filter_rows(dep_stepper *stepper, const double *J)
+{
+    const dep_constraints *cs = stepper->constraints;
+    int nq = stepper->nq, nc = cs->nc, nnz = cs->row_start[nc];
+    if (stepper->filter_id == stepper->im.id && stepper->filter_pattern == cs->pattern
+        && memcmp(stepper->filter_J, J, (size_t)nnz * sizeof *J) == 0) {
+        return;
+    }
+    double *x = stepper->filter_block, *gx = x + (size_t)nq * (FILTER_DIRECT_ROWS + 1);
+    memset(x, 0, (size_t)nq * (size_t)nc * sizeof *x);
+    for (int a = 0; a < nc; ++a) {
+        for (int k = cs->row_start[a]; k < cs->row_start[a + 1]; ++k) {
+            x[(size_t)cs->row_cols[k] * (size_t)nc + (size_t)a] = J[k];
+        }
+    }
+    filter_block(stepper, nc, x, gx);
+    for (int b = 0; b < nc; ++b) {
+        for (int a = 0; a < nc; ++a) {
+            double sum = 0.0;
+            for (int k = cs->row_start[b]; k < cs->row_start[b + 1]; ++k) {
+                sum += J[k] * gx[(size_t)cs->row_cols[k] * (size_t)nc + (size_t)a];
+            }
+            stepper->filter_JGJ[b * nc + a] = sum;
+        }
+    }
+    memcpy(stepper->filter_J, J, (size_t)nnz * sizeof *J);
+    stepper->filter_id = stepper->im.id;
+    stepper->filter_pattern = cs->pattern;
+}
+
 /* Under the linearly implicit step, the multipliers the new state keeps (the profile's node
    at t_{i+1}, docs/method.md, 10): those for which J G (f - J^T lambda) = gamma with G the
    filter of filter_block, from the acceleration pass's; and qdd = M^-1 (f - J^T lambda) at them.
@@ -330,42 +371,31 @@ static void filter_block(dep_stepper *stepper, int count, const double *x, doubl
    reactions come back in the next multipliers: a loop that held the step where h omega_max
    is about 5 (two_link_flex at 16 elements: 4.3e-5 s). G leaves the modes the step resolves
    as M^-1 does and the stiff ones out. */
+static void filter_rows(dep_stepper *stepper, const double *J);
+
 static int history_multipliers(dep_stepper *stepper, dep_state *new, dep_failure *failure)
 {
     dep_acceleration_work *w = &stepper->accel;
     const dep_measurement *pos = stepper->final_position;
     const dep_constraints *cs = stepper->constraints;
-    int nq = stepper->nq, nc = cs->nc, count = nc + 1;
+    int nq = stepper->nq, nc = cs->nc;
     dep_cs_transpose_times(cs, pos->J, new->lam, w->jt);
     for (int j = 0; j < nq; ++j) { /* the net force r = M qdd */
         w->jt[j] = w->f[j] - w->jt[j];
     }
-    if (nc <= FILTER_DIRECT_ROWS) { /* G J^T and G r in one block; J G J^T d = J G r - gamma */
-        double *x = stepper->filter_block, *S = stepper->filter_S, *d = stepper->filter_rhs;
-        double *gx = x + (size_t)nq * (FILTER_DIRECT_ROWS + 1);
-        memset(x, 0, (size_t)nq * (size_t)count * sizeof *x);
-        for (int a = 0; a < nc; ++a) {
-            for (int k = cs->row_start[a]; k < cs->row_start[a + 1]; ++k) {
-                x[(size_t)cs->row_cols[k] * (size_t)count + (size_t)a] = pos->J[k];
-            }
-        }
-        for (int j = 0; j < nq; ++j) {
-            x[(size_t)j * (size_t)count + (size_t)nc] = w->jt[j];
-        }
-        filter_block(stepper, count, x, gx);
+    if (nc <= FILTER_DIRECT_ROWS) { /* J G J^T d = J G r - gamma, J G J^T kept (filter_rows) */
+        double *gr = stepper->filter_block + (size_t)nq * (FILTER_DIRECT_ROWS + 1);
+        double *S = stepper->filter_S, *d = stepper->filter_rhs;
+        filter_rows(stepper, pos->J);
+        filter_block(stepper, 1, w->jt, gr);
         for (int b = 0; b < nc; ++b) {
-            for (int a = 0; a <= nc; ++a) {
-                double sum = 0.0;
-                for (int k = cs->row_start[b]; k < cs->row_start[b + 1]; ++k) {
-                    sum += pos->J[k] * gx[(size_t)cs->row_cols[k] * (size_t)count + (size_t)a];
-                }
-                if (a < nc) {
-                    S[b * nc + a] = sum;
-                } else {
-                    d[b] = sum - w->gamma[b];
-                }
+            double sum = 0.0;
+            for (int k = cs->row_start[b]; k < cs->row_start[b + 1]; ++k) {
+                sum += pos->J[k] * gr[cs->row_cols[k]];
             }
+            d[b] = sum - w->gamma[b];
         }
+        memcpy(S, stepper->filter_JGJ, (size_t)nc * (size_t)nc * sizeof *S);
         solve_small(nc, S, d);
         for (int a = 0; a < nc; ++a) {
             new->lam[a] += d[a];
@@ -456,7 +486,9 @@ static void unit_block(dep_stepper *stepper, const int *units, int count)
    (stepper->columns), so that every later response to a constraint force is a sum of them;
    the last step's while W, the profile's end weights and the active rows are the same (the
    rows change only at a restart, which makes W new). The weights of equal steps differ in
-   their last bits (the times are sums); WEIGHT_MATCH bounds what is taken as the same. */
+   their last bits (the times are sums); WEIGHT_MATCH bounds what is taken as the same.
+   New responses (and so a new W) make new mobilities for the passes: new ids for the Schur
+   cache (position, velocity, filter_mobility's); the kept ones serve while the responses do. */
 static void unit_responses(dep_stepper *stepper)
 {
     const dep_constraints *cs = stepper->constraints;
@@ -472,6 +504,7 @@ static void unit_responses(dep_stepper *stepper)
     }
     memcpy(stepper->weight, weight, sizeof weight);
     stepper->responses_id = stepper->im.id;
+    stepper->mobility_ids += 3;
     for (int j = 0; j < nq; ++j) {
         stepper->slot[j] = -1;
     }
@@ -595,8 +628,8 @@ void dep_stepper_use_mobility(dep_stepper *stepper, int stage)
 
 /* The base trajectory's end moved to lambda_{i+1} = lam1 by the frozen-Phi_q response to the
    change lam1 - base_lam (and the friction's end value's); 0 (nothing done) when that moves
-   q or qd further than the linearisation is accurate (LINEAR_MISS): the step is integrated
-   again instead. */
+   q or qd further than the linearisation is accurate (the limits above): the step is
+   integrated again instead. */
 static int correct_base(dep_stepper *stepper, const double *lam1, dep_rk_step *out)
 {
     int nq = stepper->nq;
@@ -613,14 +646,16 @@ static int correct_base(dep_stepper *stepper, const double *lam1, dep_rk_step *o
         }
     }
     respond(stepper, stepper->column);
+    int rosenbrock = stepper->base.method == DEP_ROSENBROCK;
     for (int j = 0; j < nq; ++j) { /* the moves of q and qd in tolerance units */
         double move = stepper->dq[j], rate = stepper->dqd[j];
         double scale = stepper->tol * (1.0 + fabs(stepper->base.y1[j]));
-        double rate_scale = stepper->tol * (1.0 + fabs(stepper->base.y1[nq + j]));
+        double rate_scale = rosenbrock ? scale / stepper->h
+                                       : stepper->tol * (1.0 + fabs(stepper->base.y1[nq + j]));
         sum += (move / scale) * (move / scale) + (rate / rate_scale) * (rate / rate_scale);
     }
-    double s2 = stepper->base.stiffness * stepper->base.stiffness, limit = LINEAR_MISS;
-    if (stepper->base.method == DEP_DOPRI) {
+    double s2 = stepper->base.stiffness * stepper->base.stiffness, limit = ROSENBROCK_MOVE;
+    if (!rosenbrock) {
         limit = s2 * LINEAR_MOST > LINEAR_MISS ? LINEAR_MISS / s2 : LINEAR_MOST;
     }
     if (!(sqrt(sum / (2 * nq)) <= limit)) {
@@ -956,7 +991,6 @@ static int take_step(dep_stepper *stepper, const dep_state *state, const dep_pro
         dep_stepper_set_rhs(stepper, &stepper->profile, new->lam); /* lambda(t0): history */
         stage_force(stepper, state->t, stepper->y0, stepper->im.g0);
         unit_responses(stepper);
-        stepper->mobility_ids += 3; /* position, velocity, filter_mobility's */
     }
     for (int round = 0;; ++round) { /* a round for each end value of the friction torques */
         dep_stepper_use_mobility(stepper, DEP_POSITION);
