@@ -120,10 +120,12 @@ typedef struct dep_implicit {
     int nq, ny, nkz, damped;
     double *K, *D;          /* nkz, W's: at the start of the step that factorised it */
     double *K_now, *D_now;  /* nkz: at the step's start */
-    double *K_drift, *D_drift; /* nkz: how far (squared) K_now, D_now may be from K, D for W to serve */
+    double *K_drift, *D_drift; /* nkz: how far (squared) K_now, D_now may be from K, D */
     int *diagonal;          /* nq: where (j, j) sits in the stiffness pattern, -1 if absent */
     int *lower;             /* nkz: where entry k sits in W's envelope, -1 above the diagonal */
     double *mass_envelope;  /* M in W's envelope */
+    double *K_envelope, *D_envelope; /* W's K and D in it (their lower triangles) */
+    double *now_envelope;   /* K_now in it (dep_implicit_fastest) */
     dep_envelope W;
     double h;               /* W's step size; 0: none yet, or forgotten */
     long long id;           /* changes with every factorisation */

@@ -12,7 +12,9 @@
  * and damping (the model's `stiffness`: the beams' elasticity and damping, hinge springs and
  * dampers, cables; evaluated at each step's start). Its velocity
  * block is W kv = M r_v - gamma h K r_q with W = M + gamma h D + gamma^2 h^2 K, symmetric
- * positive definite and banded: an envelope factorisation, no M^-1 anywhere. Since any T
+ * positive definite and banded: an envelope factorisation, no M^-1 anywhere. K and D are sums
+ * of symmetric terms (codegen/loads.py); the stages take them from their lower triangles in
+ * W's envelope, as W does, so T is the same matrix in both. Since any T
  * keeps the order, W (with the K and D it was made from) serves every step of its size while
  * K and D stay within DEP_JACOBIAN_DRIFT of it (dep_implicit_prepare).
  * The step's error is sum (b_i - bhat_i) k_i (the embedded order-2 solution), filtered by
@@ -78,6 +80,9 @@ int dep_implicit_init(dep_implicit *im, const dep_system *system, int ny, dep_ar
         return DEP_MEMORY_ERROR;
     }
     im->mass_envelope = dep_doubles(arena, (size_t)im->W.offset[nq] + 1);
+    im->K_envelope = dep_doubles(arena, (size_t)im->W.offset[nq] + 1);
+    im->D_envelope = dep_doubles(arena, (size_t)im->W.offset[nq] + 1);
+    im->now_envelope = dep_doubles(arena, (size_t)im->W.offset[nq] + 1);
     im->g0 = dep_doubles(arena, (size_t)ny);
     im->k = dep_doubles(arena, 4 * (size_t)ny);
     im->arg = dep_doubles(arena, (size_t)ny);
@@ -134,6 +139,17 @@ static int near(const dep_implicit *im, const double *held, const double *now,
     return 1;
 }
 
+/* A matrix on the stiffness pattern (K or D) into W's envelope: its lower triangle. */
+static void to_envelope(const dep_implicit *im, const double *A, double *envelope)
+{
+    memset(envelope, 0, (size_t)im->W.offset[im->nq] * sizeof *envelope);
+    for (int k = 0; k < im->nkz; ++k) {
+        if (im->lower[k] >= 0) {
+            envelope[im->lower[k]] = A[k];
+        }
+    }
+}
+
 int dep_implicit_prepare(dep_implicit *im, const double *q, double h)
 {
     const dep_system *s = im->system;
@@ -150,12 +166,12 @@ int dep_implicit_prepare(dep_implicit *im, const double *q, double h)
     for (int k = 0; k < im->nkz; ++k) {
         im->damped |= im->D[k] != 0.0;
     }
-    memcpy(im->W.A, im->mass_envelope, (size_t)im->W.offset[im->nq] * sizeof *im->W.A);
+    size_t size = (size_t)im->W.offset[im->nq];
+    to_envelope(im, im->K, im->K_envelope);
+    to_envelope(im, im->D, im->D_envelope);
     double a = GAMMA * h, b = a * a;
-    for (int k = 0; k < im->nkz; ++k) {
-        if (im->lower[k] >= 0) {
-            im->W.A[im->lower[k]] += a * im->D[k] + b * im->K[k];
-        }
+    for (size_t e = 0; e < size; ++e) {
+        im->W.A[e] = im->mass_envelope[e] + a * im->D_envelope[e] + b * im->K_envelope[e];
     }
     im->h = h;
     im->id++;
@@ -171,29 +187,37 @@ void dep_implicit_forget(dep_implicit *im)
     im->h = 0.0;
 }
 
-/* out -= A x for a matrix on the stiffness pattern (K or D), on `count` interleaved vectors
+/* out -= A x for a symmetric A in W's envelope (K or D), on `count` interleaved vectors
    (entry j of vector v at [j count + v]). */
-static void pattern_subtract(const dep_implicit *im, const double *values, int count,
-                             const double *x, double *out)
+static void envelope_subtract(const dep_implicit *im, const double *A, int count,
+                              const double *x, double *out)
 {
-    const int *rows = im->system->model->stiffness_rows, *cols = im->system->model->stiffness_cols;
-    if (count == 1) { /* one row's entries in a local sum (the pattern is by rows) */
-        for (int k = 0; k < im->nkz;) {
-            int row = rows[k];
-            double sum = out[row];
-            for (; k < im->nkz && rows[k] == row; ++k) {
-                sum -= values[k] * x[cols[k]];
+    const dep_envelope *e = &im->W;
+    for (int i = 0; i < e->n; ++i) {
+        const double *row = &DEP_ENVELOPE_AT(e, A, i, 0);
+        double *oi = out + (size_t)i * count;
+        const double *xi = x + (size_t)i * count;
+        if (count == 1) { /* row i's sum in a local, then its mirror column */
+            double sum = oi[0] - row[i] * xi[0], value = xi[0];
+            for (int j = e->first[i]; j < i; ++j) {
+                sum -= row[j] * x[j];
+                out[j] -= row[j] * value;
             }
-            out[row] = sum;
+            oi[0] = sum;
+            continue;
         }
-        return;
-    }
-    for (int k = 0; k < im->nkz; ++k) {
-        double a = values[k];
-        double *o = out + (size_t)rows[k] * count;
-        const double *xk = x + (size_t)cols[k] * count;
-        for (int v = 0; v < count; ++v) {
-            o[v] -= a * xk[v];
+        for (int j = e->first[i]; j <= i; ++j) {
+            double a = row[j];
+            double *oj = out + (size_t)j * count;
+            const double *xj = x + (size_t)j * count;
+            for (int v = 0; v < count; ++v) {
+                oi[v] -= a * xj[v];
+            }
+            if (j < i) {
+                for (int v = 0; v < count; ++v) {
+                    oj[v] -= a * xi[v];
+                }
+            }
         }
     }
 }
@@ -210,12 +234,12 @@ static void solve_stage(dep_implicit *im, int count, const double *sq, const dou
     for (size_t j = 0; j < n; ++j) {
         argument[j] = (sq != NULL ? h * sq[j] : 0.0) + a * kq[j];
     }
-    pattern_subtract(im, im->K, count, argument, rhs);
+    envelope_subtract(im, im->K_envelope, count, argument, rhs);
     if (sv != NULL && im->damped) {
         for (size_t j = 0; j < n; ++j) {
             argument[j] = h * sv[j];
         }
-        pattern_subtract(im, im->D, count, argument, rhs);
+        envelope_subtract(im, im->D_envelope, count, argument, rhs);
     }
     dep_envelope_solve_block(&im->W, count, rhs, kv);
     for (size_t j = 0; j < n; ++j) {
@@ -325,15 +349,15 @@ double dep_implicit_fastest(dep_implicit *im, const double *q)
     int nq = im->nq;
     double *x = im->arg, *y = im->g, rate = 0.0;
     s->model->stiffness(q, s->p, im->K_now, im->D_now); /* W's own K and D stay as they are */
+    double *K = im->now_envelope;
+    to_envelope(im, im->K_now, K);
     for (int j = 0; j < nq; ++j) {
         x[j] = (j % 2 ? 1.0 : -1.0) * (1.0 + 0.1 * (j % 7)); /* rich in the fast modes */
     }
     for (int k = 0; k < POWER_ITERATIONS; ++k) { /* y = M^-1 K x, rate = x.K x / x.M x */
-        memset(im->rhs, 0, (size_t)nq * sizeof *im->rhs);
-        pattern_subtract(im, im->K_now, 1, x, im->rhs);
+        dep_envelope_times(&im->W, K, x, im->rhs);
         double kx = 0.0, norm = 0.0;
         for (int j = 0; j < nq; ++j) {
-            im->rhs[j] = -im->rhs[j];
             kx += x[j] * im->rhs[j];
         }
         dep_mass_solve(&s->mass, im->rhs, y);
