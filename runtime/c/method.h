@@ -393,7 +393,8 @@ typedef struct dep_stepper {
     dep_implicit im;
     long long mobility_ids;
     double *filter_block, *filter_S, *filter_rhs; /* history_multipliers' block (stepper.c) */
-    double *filter_JGJ, *filter_J; /* J G J^T kept for the W (filter_id) and J it was made at */
+    /* G J^T and J G J^T kept for the W (filter_id) and J they were made at */
+    double *filter_GJ, *filter_JGJ, *filter_J;
     long long filter_id, filter_pattern;
     double *dq, *dqd, *column;
     /* The step's response to a unit force on each coordinate the active rows touch:

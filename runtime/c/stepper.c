@@ -42,10 +42,10 @@
    swinging down at fixed steps converged with order 2 where the step has order 3
    (tests/c/test_core_parts.py); with 3 it keeps order 3. */
 #define FILTER_ORDER 3
-/* Up to this many rows history_multipliers applies the filter to every row's J^T and the net
-   force in one block of solves and solves for the multipliers' change with the n x n matrix
-   J G J^T (one update of (6) with A = (J G J^T)^-1: the condition is linear in lambda); with
-   more, by the iteration (6) with the Schur cache's A. */
+/* Up to this many rows history_multipliers applies the filter to every row's J^T in one block
+   of solves (filter_rows, kept while W and J are) and solves for the multipliers' change with
+   the n x n matrix J G J^T (one update of (6) with A = (J G J^T)^-1: the condition is linear
+   in lambda); with more, by the iteration (6) with the Schur cache's A. */
 #define FILTER_DIRECT_ROWS 16
 #define LINEAR_MOST 10.0
 #define ROUNDOFF (16 * DEP_EPS)
@@ -140,12 +140,13 @@ int dep_stepper_init(dep_stepper *stepper, const dep_system *system, dep_constra
     stepper->accel.solved = dep_doubles(arena, (size_t)nq);
     stepper->accel.gamma = dep_doubles(arena, (size_t)capacity);
     if (system->model->nkz > 0) { /* history_multipliers' block (models with stiff forces) */
-        size_t block = (size_t)nq * (FILTER_DIRECT_ROWS + 1);
-        stepper->filter_block = dep_doubles(arena, 4 * block); /* x, G x, two scratch */
+        size_t block = (size_t)nq * FILTER_DIRECT_ROWS;
+        stepper->filter_block = dep_doubles(arena, 3 * block); /* x, two scratch */
         stepper->filter_S = dep_doubles(arena, FILTER_DIRECT_ROWS * FILTER_DIRECT_ROWS);
         stepper->filter_JGJ = dep_doubles(arena, FILTER_DIRECT_ROWS * FILTER_DIRECT_ROWS);
         stepper->filter_rhs = dep_doubles(arena, FILTER_DIRECT_ROWS);
         stepper->filter_J = dep_doubles(arena, DEP_JACOBIAN_SIZE(system->model));
+        stepper->filter_GJ = dep_doubles(arena, (size_t)nq * FILTER_DIRECT_ROWS);
         stepper->filter_id = -1;
     }
     stepper->jt_lam = dep_doubles(arena, (size_t)nq);
@@ -305,8 +306,8 @@ static void filter_block(dep_stepper *stepper, int count, const double *x, doubl
 {
     const dep_mass *mass = &stepper->system->mass;
     size_t size = (size_t)stepper->nq * (size_t)count;
-    double *power = stepper->filter_block + 2 * (size_t)stepper->nq * (FILTER_DIRECT_ROWS + 1);
-    double *product = power + (size_t)stepper->nq * (FILTER_DIRECT_ROWS + 1);
+    double *power = stepper->filter_block + (size_t)stepper->nq * FILTER_DIRECT_ROWS;
+    double *product = power + (size_t)stepper->nq * FILTER_DIRECT_ROWS;
     double coefficient = FILTER_ORDER;
     dep_envelope_solve_block(&stepper->im.W, count, x, power);
     for (size_t i = 0; i < size; ++i) {
@@ -330,9 +331,10 @@ static void filter_block(dep_stepper *stepper, int count, const double *x, doubl
     }
 }
 
-/* J G J^T (stepper->filter_JGJ, row-major) for the active rows at J: every row's G J^T in one
-   block of solves, kept while W and the rows' Jacobian stay the same (pins between beam
-   nodes have a constant one), so that a step mostly filters its net force alone. */
+/* G J^T (stepper->filter_GJ, nq x nc interleaved) and J G J^T (filter_JGJ, row-major) for
+   the active rows at J: every row's G J^T in one block of solves, kept while W and the rows'
+   Jacobian stay the same (pins between beam nodes have a constant one). G is symmetric, so
+   J G r = (G J^T)^T r then costs no solve. */
 static void filter_rows(dep_stepper *stepper, const double *J)
 {
     const dep_constraints *cs = stepper->constraints;
@@ -341,7 +343,7 @@ static void filter_rows(dep_stepper *stepper, const double *J)
         && memcmp(stepper->filter_J, J, (size_t)nnz * sizeof *J) == 0) {
         return;
     }
-    double *x = stepper->filter_block, *gx = x + (size_t)nq * (FILTER_DIRECT_ROWS + 1);
+    double *x = stepper->filter_block, *gx = stepper->filter_GJ;
     memset(x, 0, (size_t)nq * (size_t)nc * sizeof *x);
     for (int a = 0; a < nc; ++a) {
         for (int k = cs->row_start[a]; k < cs->row_start[a + 1]; ++k) {
@@ -383,17 +385,17 @@ static int history_multipliers(dep_stepper *stepper, dep_state *new, dep_failure
     for (int j = 0; j < nq; ++j) { /* the net force r = M qdd */
         w->jt[j] = w->f[j] - w->jt[j];
     }
-    if (nc <= FILTER_DIRECT_ROWS) { /* J G J^T d = J G r - gamma, J G J^T kept (filter_rows) */
-        double *gr = stepper->filter_block + (size_t)nq * (FILTER_DIRECT_ROWS + 1);
+    if (nc <= FILTER_DIRECT_ROWS) { /* J G J^T d = J G r - gamma, with filter_rows' */
         double *S = stepper->filter_S, *d = stepper->filter_rhs;
+        const double *gx = stepper->filter_GJ;
         filter_rows(stepper, pos->J);
-        filter_block(stepper, 1, w->jt, gr);
         for (int b = 0; b < nc; ++b) {
-            double sum = 0.0;
-            for (int k = cs->row_start[b]; k < cs->row_start[b + 1]; ++k) {
-                sum += pos->J[k] * gr[cs->row_cols[k]];
+            d[b] = -w->gamma[b];
+        }
+        for (int j = 0; j < nq; ++j) {
+            for (int b = 0; b < nc; ++b) {
+                d[b] += gx[(size_t)j * (size_t)nc + (size_t)b] * w->jt[j];
             }
-            d[b] = sum - w->gamma[b];
         }
         memcpy(S, stepper->filter_JGJ, (size_t)nc * (size_t)nc * sizeof *S);
         solve_small(nc, S, d);
