@@ -31,14 +31,14 @@
    issue's accuracy; a linear profile takes 21,300 but misses the low-passed tip by 3e-5 m). */
 #define IMPLICIT_PROFILE_NODES 2
 /* The linearly implicit step keeps its size while the controller would change it by a factor
-   within [HOLD_LOW, HOLD_HIGH], so that K, D, W's factorisation, the unit responses and the
-   filter's J G J^T serve many steps (rosenbrock.c, stepper.c): a new W costs about as much as
-   the step itself. two_link_flex at 16 elements, tol 1e-8: with RADAU5's window [1, 1.2]
-   26,800 steps, 12,200 of them with a new W (10,000 for h); with [0.9, 1.2] 27,900 steps,
-   6,500 new W (2,500 for h), a sixth less time and every error against the explicit run as
-   small. A wider upper bound holds a step that wants to grow by a little each step: [0.9, 1.5]
-   took 575 steps at tol 1e-6 over 0.2 s at 8 elements where [0.9, 1.2] takes 248. */
-#define HOLD_LOW 0.9
+   within [HOLD_LOW, HOLD_HIGH] (the defaults of Hairer & Wanner's RADAU5), so that K, D, W's
+   factorisation, the unit responses and the filter's J G J^T serve many steps (rosenbrock.c,
+   stepper.c): a new W costs about as much as a step. A window from 0.9 saved a fifth of the
+   time at two_link_flex's tol 1e-8 (16 elements), but at tol 1e-7 the step's errors then
+   alternated from step to step and chord2's error tripled (6.4e-5 rad against 1.8e-5); from
+   1.5 a step that wants to grow by a little each step stays small (575 steps instead of 248
+   at tol 1e-6 over 0.2 s at 8 elements). */
+#define HOLD_LOW 1.0
 #define HOLD_HIGH 1.2
 /* The friction torques' profile through the accepted ones is stable (as an Adams-Moulton
    method's) while h times the fastest rate c / I their damping c gives the mechanism stays
