@@ -31,14 +31,15 @@
    issue's accuracy; a linear profile takes 21,300 but misses the low-passed tip by 3e-5 m). */
 #define IMPLICIT_PROFILE_NODES 2
 /* The linearly implicit step keeps its size while the controller would change it by a factor
-   within [HOLD_LOW, HOLD_HIGH] (the defaults of Hairer & Wanner's RADAU5), so that K, D, W's
-   factorisation, the unit responses and the filter's J G J^T serve many steps (rosenbrock.c,
-   stepper.c): a new W costs about as much as a step. A window from 0.9 saved a fifth of the
-   time at two_link_flex's tol 1e-8 (16 elements), but at tol 1e-7 the step's errors then
-   alternated from step to step and chord2's error tripled (6.4e-5 rad against 1.8e-5); from
-   1.5 a step that wants to grow by a little each step stays small (575 steps instead of 248
-   at tol 1e-6 over 0.2 s at 8 elements). */
-#define HOLD_LOW 1.0
+   within [HOLD_LOW, HOLD_HIGH], so that K, D, W's factorisation, the unit responses and the
+   filter's J G J^T serve many steps (rosenbrock.c, stepper.c): a new W costs about as much as
+   a step. Held 3 % longer than the controller wants, a step of order q misses its aim by about
+   1.03^(q + 1), a tenth. two_link_flex at 16 elements, tol 1e-8: 2.51 s from 1 (Hairer &
+   Wanner's RADAU5), 2.22 s from 0.97, 2.16 s from 0.95; but at tol 1e-7 the step's errors
+   then alternate from step to step and chord2's error grows: 1.8e-5, 2.1e-5, 2.7e-5 rad, and
+   6.4e-5 from 0.9. A wider upper bound holds a step that wants to grow by a little each step
+   (from 1.5: 575 steps instead of 248 at tol 1e-6 over 0.2 s at 8 elements). */
+#define HOLD_LOW 0.97
 #define HOLD_HIGH 1.2
 /* The friction torques' profile through the accepted ones is stable (as an Adams-Moulton
    method's) while h times the fastest rate c / I their damping c gives the mechanism stays
