@@ -185,12 +185,14 @@ def c_target(model: ir.Model, system: SymbolicSystem | None = None
     """The lowered module (its sizes, tables and identity, for targets that wrap the C model:
     codegen.fmu) and the generated files of `c_sources`, from one lowering."""
     from depsim import __version__  # the facade package imports codegen lazily
+    from depsim.runtime.core import CFLAGS  # the flags depsim builds the same sources with
 
     view = lower_module(model, system or derive(model), CPrinter, __version__)
     runtime = tuple(sorted(path.name for path in runtime_c_dir().iterdir()
                            if path.suffix in (".c", ".h")))
     c = c_view(view, runtime)
-    files = {name: C_ENVIRONMENT.get_template(f"c/{name}.j2").render(c=c, m=view)
+    files = {name: C_ENVIRONMENT.get_template(f"c/{name}.j2").render(c=c, m=view,
+                                                                     cflags=" ".join(CFLAGS))
              for name in GENERATED_FILES if name != "model.c"}
     template = C_ENVIRONMENT.get_template("c/model.c.j2")
     files.update({f.name: template.render(c=c, m=view, file=f) for f in c.files})

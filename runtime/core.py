@@ -28,7 +28,9 @@ from pathlib import Path
 SOURCE_DIR = Path(__file__).resolve().parent / "c"
 PROGRAM_SOURCE = "main.c"  # the standalone program's entry point, not part of the core
 HEADERS = ("depsim_model.h", "depsim.h")  # the public interface, in include order
-CFLAGS = ("-O2", "-std=c99")
+# -fno-math-errno: sqrt is the instruction, not a libm call that may set errno (nothing reads
+# it); 4 % faster on INTELSAT V and two_link_flex, outputs bit for bit the same.
+CFLAGS = ("-O2", "-fno-math-errno", "-std=c99")
 SHARED_FLAGS = ("-fPIC", "-shared")
 CORE_LIBRARY = "libdepsim_core.so"
 
