@@ -97,6 +97,7 @@ int dep_run_restart(dep_run *run, double t, const double *q, const double *qd,
     memset(s->lam, 0, (size_t)run->cs.nc * sizeof *s->lam);
     s->t = t;
     dep_implicit_forget(&stepper->im); /* new rows, inputs or parameters: K, D and W anew */
+    stepper->end_t = NAN;              /* and the force at the last step's end */
     dep_cs_jacobian(&run->cs, s->q, t, stepper->restart_J);
     status = dep_acceleration(stepper, s->q, s->qd, t, s->lam, stepper->restart_J,
                               ++stepper->jacobian_ids, s->qdd, &report, &failure);

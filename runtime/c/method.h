@@ -382,6 +382,10 @@ typedef struct dep_stepper {
     dep_profile profile;  /* lambda(t) over the step */
     const double *rhs_end;  /* its end value for the next rhs calls */
     double *y0, *k1, *rhs_lam, *force, *jt_lam, *scratch;
+    const double *known_force; /* f for the next right side instead of an evaluation, or NULL */
+    /* The linearly implicit step's last acceleration pass: f at (q, qd) = end_state and end_t
+       (NaN: none, after a restart; start_force) */
+    double *end_force, *end_state, end_t;
     dep_rk_step base;       /* the step's last integration, for lambda_{i+1} = base_lam */
     double *base_lam, *base_J; /* nc; nc x nq: Phi_q at its end */
     double *q1, *phi_t1, *lam_pos, *lam_solved;

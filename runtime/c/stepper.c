@@ -126,6 +126,9 @@ int dep_stepper_init(dep_stepper *stepper, const dep_system *system, dep_constra
         *rows[i] = dep_doubles(arena, (size_t)capacity);
     }
     stepper->force = dep_doubles(arena, (size_t)nq);
+    stepper->end_force = dep_doubles(arena, (size_t)nq);
+    stepper->end_state = dep_doubles(arena, 2 * (size_t)nq);
+    stepper->end_t = NAN;
     stepper->base_J = dep_doubles(arena, DEP_JACOBIAN_SIZE(system->model));
     if (dep_rk_init(&stepper->base, ny, arena) != DEP_OK) {
         return DEP_MEMORY_ERROR;
@@ -234,11 +237,13 @@ static void right_side(dep_stepper *stepper, double t, const double *y, double *
     const dep_system *s = stepper->system;
     int nq = stepper->nq;
     const double *q = y, *qd = y + nq;
-    stepper->rhs_evaluations++;
     dep_profile_value(&stepper->profile, stepper->rhs_end, t, cs->nc, stepper->rhs_lam);
     dep_cs_jacobian_transpose_times(cs, q, t, stepper->rhs_lam, stepper->jt_lam);
     memcpy(out, qd, (size_t)nq * sizeof *out);
-    if (s->nd > 0) { /* the work rates too, from the same hinge rates and friction torques */
+    if (stepper->known_force != NULL) { /* f given (stage 1 of the linearly implicit step) */
+        memcpy(stepper->force, stepper->known_force, (size_t)nq * sizeof *stepper->force);
+        dissipation(s, q, qd, t, out + 2 * nq);
+    } else if (s->nd > 0) { /* the work rates too, from the same hinge rates and friction torques */
         const double *friction = NULL;
         if (stepper->prescribed) {
             dep_profile_value(&stepper->friction_profile, stepper->friction_end, t, s->nh,
@@ -246,8 +251,10 @@ static void right_side(dep_stepper *stepper, double t, const double *y, double *
             friction = stepper->friction_now;
         }
         dep_system_force_power(s, q, qd, t, friction, stepper->force, out + 2 * nq);
+        stepper->rhs_evaluations++;
     } else {
         dep_system_force(s, q, qd, t, stepper->force);
+        stepper->rhs_evaluations++;
     }
     for (int j = 0; j < nq; ++j) {
         stepper->force[j] -= stepper->jt_lam[j];
@@ -958,6 +965,19 @@ static int friction_failure(const dep_stepper *stepper, dep_failure *failure)
 
 /* ---- one step ---------------------------------------------------------------------------- */
 
+/* The force at `state` when the acceleration pass of the step that ended there computed it
+   (the same t, q and qd, no restart since: dep_run_restart forgets it), else NULL: the
+   linearly implicit step's first stage then costs no evaluation. */
+static const double *start_force(const dep_stepper *stepper, const dep_state *state)
+{
+    size_t size = (size_t)stepper->nq * sizeof(double);
+    if (state->t != stepper->end_t || memcmp(state->q, stepper->end_state, size) != 0
+        || memcmp(state->qd, stepper->end_state + stepper->nq, size) != 0) {
+        return NULL;
+    }
+    return stepper->end_force;
+}
+
 /* Advance `state` by the profile's h (s) from the predicted lambda_{i+1}; DEP_PASS_FAILED
    when a pass does not converge. The outcome is valid until the next step. */
 static int take_step(dep_stepper *stepper, const dep_state *state, const dep_profile *profile,
@@ -991,7 +1011,9 @@ static int take_step(dep_stepper *stepper, const dep_state *state, const dep_pro
             return DEP_PASS_FAILED;
         }
         dep_stepper_set_rhs(stepper, &stepper->profile, new->lam); /* lambda(t0): history */
+        stepper->known_force = start_force(stepper, state);
         stage_force(stepper, state->t, stepper->y0, stepper->im.g0);
+        stepper->known_force = NULL;
         unit_responses(stepper);
     }
     for (int round = 0;; ++round) { /* a round for each end value of the friction torques */
@@ -1033,6 +1055,12 @@ static int take_step(dep_stepper *stepper, const dep_state *state, const dep_pro
     status = dep_acceleration(stepper, new->q, new->qd, stepper->t1, new->lam,
                               stepper->final_position->J, stepper->final_position->jacobian_id,
                               new->qdd, &outcome->reports[2], failure);
+    if (status == DEP_OK && stepper->implicit) { /* f at the new state: the next start's */
+        memcpy(stepper->end_force, stepper->accel.f, (size_t)nq * sizeof(double));
+        memcpy(stepper->end_state, new->q, (size_t)nq * sizeof(double));
+        memcpy(stepper->end_state + nq, new->qd, (size_t)nq * sizeof(double));
+        stepper->end_t = stepper->t1;
+    }
     if (status == DEP_OK && stepper->implicit && stepper->system->model->nkz > 0) {
         status = history_multipliers(stepper, new, failure); /* (nkz = 0: W = M, G = M^-1) */
     }
