@@ -141,7 +141,7 @@ typedef struct dep_implicit {
 /* W is kept for a step of its size while every entry of K and D now is within this fraction
    of sqrt(K_ii K_jj) (sqrt(D_ii D_jj)) of W's, the scale a positive semi-definite matrix's
    entries have whatever the coordinates' units */
-#define DEP_JACOBIAN_DRIFT 1e-3
+#define DEP_JACOBIAN_DRIFT 2e-3
 
 int dep_implicit_init(dep_implicit *im, const dep_system *system, int ny, dep_arena *arena);
 /* W for a step of size h from q: the last one while h is the same and K and D at q are
