@@ -6,7 +6,7 @@ linearly implicit step, or on a finer mesh.
 
 * `explicit`: depsim's own multiplier iteration with DOPRI 5(4) throughout (stepping
   "explicit"): every mode resolved by an explicit step held at its stability bound, no
-  numerical damping (8-10 CPU-minutes at 16 elements for 5 s).
+  numerical damping (about 2 minutes at 16 elements for 5 s, 8 at 32).
 * `radau`: no depsim core at all. The generated NumPy module supplies M, f, Phi and gamma;
   tests/references/direct.py solves the augmented index-1 system with Baumgarte
   stabilisation at every evaluation and scipy's Radau IIA (implicit, order 5, its own
