@@ -380,8 +380,6 @@ static void filter_rows(dep_stepper *stepper, const double *J)
    reactions come back in the next multipliers: a loop that held the step where h omega_max
    is about 5 (two_link_flex at 16 elements: 4.3e-5 s). G leaves the modes the step resolves
    as M^-1 does and the stiff ones out. */
-static void filter_rows(dep_stepper *stepper, const double *J);
-
 static int history_multipliers(dep_stepper *stepper, dep_state *new, dep_failure *failure)
 {
     dep_acceleration_work *w = &stepper->accel;
