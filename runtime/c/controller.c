@@ -136,11 +136,15 @@ void dep_profile_set(dep_profile *profile, const dep_history *history, double h,
     }
     set_inverse(profile);
     profile->position = profile->velocity = profile->excursion = 0.0;
+    profile->position_start = profile->velocity_start = profile->lagged = 0.0;
     for (int g = 0; g < 3; ++g) {
         double s = NODES[g], product = s - 1.0;
         basis(profile, s, w);
         profile->position += PLAIN[g] * (1.0 - s) * w[nodes];
         profile->velocity += PLAIN[g] * w[nodes];
+        profile->position_start += PLAIN[g] * (1.0 - s) * (1.0 - s) * w[nodes];
+        profile->velocity_start += PLAIN[g] * (1.0 - s) * w[nodes];
+        profile->lagged += PLAIN[g] * 0.5 * (1.0 - s) * (1.0 - s) * w[nodes];
         for (int j = 0; j < nodes; ++j) {
             product *= s - profile->u[j];
         }
@@ -159,6 +163,9 @@ void dep_profile_hold(dep_profile *profile, double t0, const double *lam)
     set_inverse(profile);
     profile->position = 1.0 / 6.0;
     profile->velocity = 0.5;
+    profile->position_start = 1.0 / 12.0;
+    profile->velocity_start = 1.0 / 6.0;
+    profile->lagged = 1.0 / 24.0;
     profile->excursion = 1.0 / 12.0;
 }
 

@@ -181,28 +181,6 @@ static double first_step(dep_run *run)
                             run->t_stop - s->t, run->scratch);
 }
 
-/* v (nq, in place) less what the pass's correction at J moves along the rows:
-   v - G J^T S^-1 J v with S = J G J^T, G the multipliers' (M^-1: the M-orthogonal projection
-   onto the tangent space); 0 (v as it was) where S is singular. scratch: 2 nc + 2 nq. */
-static int tangential(dep_run *run, const double *J, long long J_id, double *v, double *scratch)
-{
-    int nq = run->nq, nc = run->cs.nc;
-    double *Jv = scratch, *mu = Jv + nc, *column = mu + nc, *solved = column + nq;
-    if (nc == 0) {
-        return 1;
-    }
-    dep_cs_times(&run->cs, J, v, Jv);
-    if (!dep_schur_solve(&run->stepper.mp, J, J_id, nc, Jv, mu)) {
-        return 0;
-    }
-    dep_cs_transpose_times(&run->cs, J, mu, column);
-    dep_multipliers_apply(&run->stepper.mp, column, solved);
-    for (int j = 0; j < nq; ++j) {
-        v[j] -= solved[j];
-    }
-    return 1;
-}
-
 /* The ODE method's error estimate less what the passes remove: its position and velocity
    parts projected onto the tangent space of the constraints at the step end along what the
    pass's correction moves (tangential; G = M^-1 for DOPRI, the Rosenbrock step's responses
@@ -215,8 +193,9 @@ static void tangential_error(dep_run *run, const dep_outcome *outcome)
     memcpy(run->tangent, rk->error, (size_t)run->ny * sizeof *run->tangent);
     for (int half = 0; half < 2 && solved_all; ++half) {
         dep_stepper_use_mobility(stepper, half == 0 ? DEP_POSITION : DEP_VELOCITY);
-        solved_all = tangential(run, outcome->J1, outcome->J1_id,
-                                run->tangent + (size_t)half * (size_t)nq, run->normal);
+        solved_all = dep_stepper_tangential(stepper, outcome->J1, outcome->J1_id,
+                                            run->tangent + (size_t)half * (size_t)nq,
+                                            run->normal);
     }
     dep_stepper_use_mobility(stepper, DEP_ACCELERATION);
     if (!solved_all) { /* a singular S: measure the whole error */
@@ -330,7 +309,7 @@ static void interpolation_errors(dep_run *run, const dep_outcome *outcome,
     system->model->hinge_jacobian(new->q, system->p, system->hinge_jacobian);
     dep_hinge_transpose_times(system, system->hinge_jacobian, defect, column);
     dep_mass_solve(&system->mass, column, excursion);
-    tangential(run, outcome->J1, outcome->J1_id, excursion, projection);
+    dep_stepper_tangential(&run->stepper, outcome->J1, outcome->J1_id, excursion, projection);
     dep_stepper_use_mobility(&run->stepper, DEP_POSITION);
     for (int j = 0; j < nq; ++j) { /* h^2 integral (1 - u) |defect|, h integral |defect| */
         move[j] = 0.5 * h * h * excursion[j];

@@ -277,14 +277,18 @@ typedef struct dep_history {
    at u = 1 (docs/method.md, section 2). `position` and `velocity` are the integrals of the end
    value's basis polynomial l(u): integral_0^1 (1 - u) l(u) du and integral_0^1 l(u) du, so
    that d q_{i+1} = -h^2 position M^-1 Phi_q^T d lambda_{i+1} for frozen Phi_q (the C of the
-   iteration (6)) and d qd_{i+1} = -h velocity M^-1 Phi_q^T d lambda_{i+1}. */
+   iteration (6)) and d qd_{i+1} = -h velocity M^-1 Phi_q^T d lambda_{i+1}. With Phi_q
+   linear in time between its values at the step's start and end, the start's share:
+   `position_start` and `velocity_start`, the same integrals weighted by 1 - u. `lagged`:
+   integral_0^1 (1 - u)^2 / 2 l(u) du, what a force growing over the step like the velocity's
+   response, integral_0^u l, moves q_{i+1} by per h^2 (times velocity; stepper.c). */
 typedef struct dep_profile {
     double t0, h;
     int nodes;
     double u[DEP_PROFILE_NODES];
     const double *lam[DEP_PROFILE_NODES];
     double inverse[DEP_PROFILE_NODES + 1]; /* 1 / prod_{m != j} (u_j - u_m), u_nodes = 1 */
-    double position, velocity;
+    double position, velocity, position_start, velocity_start, lagged;
     double excursion; /* integral_0^1 (1 - u) |prod_j (u - u_j) (u - 1)| du */
 } dep_profile;
 
@@ -389,6 +393,11 @@ typedef struct dep_stepper {
     double *end_force, *end_state, end_t;
     dep_rk_step base;       /* the step's last integration, for lambda_{i+1} = base_lam */
     double *base_lam, *base_J; /* nc; nc x nq: Phi_q at its end */
+    long long base_J_id;
+    double *miss;           /* 4 nq + 2 capacity: linear_miss's vectors and scratch */
+    double *start_J, *start_Jh, *start_force; /* Phi_q, J_h at the step's start (start_made);
+                                               M^-1 of the start's, end's column (2 nq) */
+    int start_made;
     double *q1, *phi_t1, *lam_pos, *lam_solved;
     int base_valid, integrations_this_step;
     double *restart_J;
@@ -435,6 +444,8 @@ int dep_outcome_init(dep_outcome *outcome, int nq, int capacity, int nd, int nh,
                      dep_arena *arena);
 void dep_stepper_derivative(dep_stepper *stepper, const dep_state *state, double *dy);
 void dep_stepper_rhs(void *context, double t, const double *y, double *dy);
+int dep_stepper_tangential(dep_stepper *stepper, const double *J, long long J_id, double *v,
+                           double *scratch);
 void dep_stepper_set_rhs(dep_stepper *stepper, const dep_profile *profile,
                          const double *lam_end);
 int dep_acceleration(dep_stepper *stepper, const double *q, const double *qd, double t,

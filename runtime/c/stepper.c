@@ -25,10 +25,17 @@
 #include "runtime.h"
 
 #define CONSTRAINT_FRACTION 0.01
-/* A position-pass trial moves the last integration's end linearly (frozen Phi_q) instead of
-   integrating the step again while the linearisation is accurate enough for the move:
-   - DOPRI: what it misses is about s^2 of the move (s = h |lambda|, the step's stiffness
-     estimate); that within LINEAR_MISS tolerances, the move itself within LINEAR_MOST.
+/* A position-pass trial moves the last integration's end linearly instead of integrating the
+   step again while the linearisation is accurate enough for the move:
+   - DOPRI: the constraint force's change -Phi_q^T d(lambda) l(u), with Phi_q turning with
+     the bodies over the step (linear in time from its value at the start to the end's),
+     moves the end by M^-1 times its integrals. What that misses is the rest of the force's
+     response to the move, about s^2 of it (s = h |lambda|, the step's stiffness estimate).
+     A move within LINEAR_MOST whose s^2 times it is within LINEAR_MISS tolerances is made at
+     once. A larger one, up to LINEAR_FAR, is measured: the force's response at the moved end
+     (one evaluation), grown over the step like the velocity's move, gives the miss; its
+     tangential part (the passes correct the rest, as they do DOPRI's own error) within
+     LINEAR_MISS.
    - Rosenbrock: its responses run through the step's own T, so they miss only the force's
      departure from T (K's drift, up to DEP_JACOBIAN_DRIFT, and the elastic force's
      nonlinearity; two_link_flex at 16 elements: about a thousandth of the move). The move is
@@ -48,6 +55,7 @@
    in lambda); with more, by the iteration (6) with the Schur cache's A. */
 #define FILTER_DIRECT_ROWS 16
 #define LINEAR_MOST 10.0
+#define LINEAR_FAR 100.0
 #define ROUNDOFF (16 * DEP_EPS)
 #define WEIGHT_MATCH 1e-12 /* end weights (of order 1) this close give the same responses */
 /* The friction torques' end value is settled when the law at the step's end gives it back to
@@ -130,6 +138,10 @@ int dep_stepper_init(dep_stepper *stepper, const dep_system *system, dep_constra
     stepper->end_state = dep_doubles(arena, 2 * (size_t)nq);
     stepper->end_t = NAN;
     stepper->base_J = dep_doubles(arena, DEP_JACOBIAN_SIZE(system->model));
+    stepper->start_J = dep_doubles(arena, DEP_JACOBIAN_SIZE(system->model));
+    stepper->start_Jh = dep_doubles(arena, (size_t)system->model->nhnz + 1);
+    stepper->start_force = dep_doubles(arena, 2 * (size_t)nq);
+    stepper->miss = dep_doubles(arena, 4 * (size_t)nq + 2 * (size_t)capacity);
     if (dep_rk_init(&stepper->base, ny, arena) != DEP_OK) {
         return DEP_MEMORY_ERROR;
     }
@@ -269,6 +281,29 @@ static void right_side(dep_stepper *stepper, double t, const double *y, double *
 void dep_stepper_rhs(void *context, double t, const double *y, double *dy)
 {
     right_side(context, t, y, dy, 1);
+}
+
+/* v (nq, in place) less what the pass's correction at J moves along the rows:
+   v - G J^T S^-1 J v with S = J G J^T, G the multipliers' (M^-1: the M-orthogonal projection
+   onto the tangent space); 0 (v as it was) where S is singular. scratch: 2 nc + 2 nq. */
+int dep_stepper_tangential(dep_stepper *stepper, const double *J, long long J_id, double *v,
+                           double *scratch)
+{
+    int nq = stepper->nq, nc = stepper->constraints->nc;
+    double *Jv = scratch, *mu = Jv + nc, *column = mu + nc, *solved = column + nq;
+    if (nc == 0) {
+        return 1;
+    }
+    dep_cs_times(stepper->constraints, J, v, Jv);
+    if (!dep_schur_solve(&stepper->mp, J, J_id, nc, Jv, mu)) {
+        return 0;
+    }
+    dep_cs_transpose_times(stepper->constraints, J, mu, column);
+    dep_multipliers_apply(&stepper->mp, column, solved);
+    for (int j = 0; j < nq; ++j) {
+        v[j] -= solved[j];
+    }
+    return 1;
 }
 
 /* g = (qd, f - Phi_q^T lambda(t), work rates): the Rosenbrock step's right side. */
@@ -633,27 +668,115 @@ void dep_stepper_use_mobility(dep_stepper *stepper, int stage)
     }
 }
 
-/* The base trajectory's end moved to lambda_{i+1} = lam1 by the frozen-Phi_q response to the
-   change lam1 - base_lam (and the friction's end value's); 0 (nothing done) when that moves
-   q or qd further than the linearisation is accurate (the limits above): the step is
-   integrated again instead. */
-static int correct_base(dep_stepper *stepper, const double *lam1, dep_rk_step *out)
+/* Phi_q and J_h at the step's start (once a step, when a correction first needs them). */
+static void start_jacobians(dep_stepper *stepper)
+{
+    const dep_system *system = stepper->system;
+    if (stepper->start_made) {
+        return;
+    }
+    dep_cs_jacobian(stepper->constraints, stepper->start->q, stepper->start->t, stepper->start_J);
+    if (stepper->prescribed) {
+        system->model->hinge_jacobian(stepper->start->q, system->p, stepper->start_Jh);
+    }
+    stepper->start_made = 1;
+}
+
+/* M^-1 (Phi_q^T d(lambda) - J_h^T d(tau)) at J, Jh into out: d(lambda) in rhs_lam, d(tau)
+   (prescribed friction) in residual. */
+static void moved_force(dep_stepper *stepper, const double *J, const double *Jh, double *out)
+{
+    const dep_system *system = stepper->system;
+    int nq = stepper->nq;
+    dep_cs_transpose_times(stepper->constraints, J, stepper->rhs_lam, stepper->column);
+    if (stepper->prescribed) {
+        dep_hinge_transpose_times(system, Jh, stepper->residual, stepper->jt_lam);
+        for (int j = 0; j < nq; ++j) {
+            stepper->column[j] -= stepper->jt_lam[j];
+        }
+    }
+    dep_mass_solve(&system->mass, stepper->column, out);
+}
+
+/* The DOPRI step end's response (stepper->dq, dqd) to lambda_{i+1} changed from the base's by
+   lam1 - base_lam and, with the friction prescribed, its end value by friction_end -
+   friction_base (stepper->residual): the force -(Phi_q^T d(lambda) - J_h^T d(tau)) l(u), with
+   Phi_q and J_h linear in time from the step's start to the base's end (the profile's
+   position_start and velocity_start weigh the start's part). stepper->start_force: M^-1 of
+   the force's start and end values. */
+static void respond_along(dep_stepper *stepper, const double *lam1)
+{
+    int nq = stepper->nq, nc = stepper->constraints->nc;
+    const dep_profile *profile = &stepper->profile;
+    double h = stepper->h, *f0 = stepper->start_force, *f1 = f0 + nq;
+    double p0 = profile->position_start, p1 = profile->position - p0;
+    double v0 = profile->velocity_start, v1 = profile->velocity - v0;
+    start_jacobians(stepper);
+    for (int i = 0; i < nc; ++i) {
+        stepper->rhs_lam[i] = lam1[i] - stepper->base_lam[i];
+    }
+    moved_force(stepper, stepper->start_J, stepper->start_Jh, f0);
+    moved_force(stepper, stepper->base_J, stepper->base_Jh, f1);
+    for (int j = 0; j < nq; ++j) {
+        stepper->dq[j] = -h * h * (p0 * f0[j] + p1 * f1[j]);
+        stepper->dqd[j] = -h * (v0 * f0[j] + v1 * f1[j]);
+    }
+}
+
+/* The measured miss of a DOPRI correction to y1 (the base's end moved by dq, dqd): the
+   force's response at the moved end, e = a(y1, lam1) - a(base end, base_lam) + M^-1 (Phi_q^T
+   d(lambda) - J_h^T d(tau)) (less the part the correction made), grown over the step like the
+   velocity's move, integral_0^u l: it misses h (position / velocity) e in qd and h^2 (lagged /
+   velocity) e in q (a force growing later, like the position's move, misses less). Its
+   tangential part, RMS in tolerances. */
+static double linear_miss(dep_stepper *stepper, const double *lam1, const double *y1)
+{
+    int nq = stepper->nq, ny = stepper->ny;
+    double h = stepper->h, *dy = stepper->scratch, *mq = stepper->miss, *mv = mq + nq;
+    const double *end = stepper->base.K + 6 * (size_t)ny + nq;
+    const dep_profile *profile = &stepper->profile;
+    const double *made = stepper->start_force + nq; /* respond_along's end force */
+    dep_stepper_set_rhs(stepper, &stepper->profile, lam1);
+    dep_stepper_rhs(stepper, stepper->t1, y1, dy);
+    for (int j = 0; j < nq; ++j) {
+        double e = dy[nq + j] - end[j] + made[j];
+        mq[j] = h * h * profile->lagged / profile->velocity * e;
+        mv[j] = h * profile->position / profile->velocity * e;
+    }
+    for (int half = 0; half < 2; ++half) { /* (along the base's end rows: an estimate) */
+        dep_stepper_tangential(stepper, stepper->base_J, stepper->base_J_id, mq + half * nq,
+                               mq + 2 * nq);
+    }
+    double sum = 0.0;
+    for (int j = 0; j < nq; ++j) {
+        double a = mq[j] / (stepper->tol * (1.0 + fabs(y1[j])));
+        double b = mv[j] / (stepper->tol * (1.0 + fabs(y1[nq + j])));
+        sum += a * a + b * b;
+    }
+    return sqrt(sum / (2 * nq));
+}
+
+/* The base trajectory's end moved to lambda_{i+1} = lam1 (and the friction's end value) by
+   the linear response (DOPRI: respond_along; Rosenbrock: through its stages, Phi_q frozen at
+   the end), into out with its Jacobian; 0 (out not valid) when the linearisation is not
+   accurate enough for the move (the limits above): the step is integrated again instead. */
+static int correct_base(dep_stepper *stepper, const double *lam1, dep_measurement *out)
 {
     int nq = stepper->nq;
     double sum = 0.0;
-    lam_column(stepper, stepper->base_J, lam1, stepper->base_lam);
-    if (stepper->prescribed) { /* less J_h^T times the friction's end value's change */
+    int rosenbrock = stepper->base.method == DEP_ROSENBROCK;
+    if (stepper->prescribed) {
         const dep_system *system = stepper->system;
         for (int i = 0; i < system->nh; ++i) {
             stepper->residual[i] = stepper->friction_end[i] - stepper->friction_base[i];
         }
-        dep_hinge_transpose_times(system, stepper->base_Jh, stepper->residual, stepper->dq);
-        for (int j = 0; j < nq; ++j) {
-            stepper->column[j] -= stepper->dq[j];
-        }
     }
-    respond(stepper, stepper->column);
-    int rosenbrock = stepper->base.method == DEP_ROSENBROCK;
+    if (rosenbrock) {
+        lam_column(stepper, stepper->base_J, lam1, stepper->base_lam);
+        respond(stepper, stepper->column);
+    } else {
+        respond_along(stepper, lam1);
+    }
     for (int j = 0; j < nq; ++j) { /* the moves of q and qd in tolerance units */
         double move = stepper->dq[j], rate = stepper->dqd[j];
         double scale = stepper->tol * (1.0 + fabs(stepper->base.y1[j]));
@@ -662,22 +785,24 @@ static int correct_base(dep_stepper *stepper, const double *lam1, dep_rk_step *o
         sum += (move / scale) * (move / scale) + (rate / rate_scale) * (rate / rate_scale);
     }
     double s2 = stepper->base.stiffness * stepper->base.stiffness, limit = ROSENBROCK_MOVE;
+    double move = sqrt(sum / (2 * nq));
     if (!rosenbrock) {
         limit = s2 * LINEAR_MOST > LINEAR_MISS ? LINEAR_MISS / s2 : LINEAR_MOST;
     }
-    if (!(sqrt(sum / (2 * nq)) <= limit)) {
+    if (!(move <= (rosenbrock ? limit : LINEAR_FAR))) {
         return 0;
     }
-    copy_base(stepper, out);
+    dep_rk_step *rk = &out->rk;
+    copy_base(stepper, rk);
     for (int j = 0; j < nq; ++j) {
-        out->y1[j] += stepper->dq[j];
-        out->y1[nq + j] += stepper->dqd[j];
+        rk->y1[j] += stepper->dq[j];
+        rk->y1[nq + j] += stepper->dqd[j];
     }
     if (stepper->prescribed) { /* each friction's work: -tau d(theta), -d(tau) l(u) rate dt */
         const dep_system *system = stepper->system;
-        double *work = out->y1 + 2 * nq + system->model->nd, *turn = stepper->friction_now;
-        system->model->hinge_rates(out->y1, out->y1 + nq, system->p, stepper->law);
-        system->model->hinge_rates(out->y1, stepper->dq, system->p, turn);
+        double *work = rk->y1 + 2 * nq + system->model->nd, *turn = stepper->friction_now;
+        system->model->hinge_rates(rk->y1, rk->y1 + nq, system->p, stepper->law);
+        system->model->hinge_rates(rk->y1, stepper->dq, system->p, turn);
         for (int i = 0, k = 0; i < system->nh; ++i) {
             if (system->hinges[i].has_friction) {
                 work[k++] -= stepper->friction_end[i] * turn[i] + stepper->h
@@ -685,7 +810,8 @@ static int correct_base(dep_stepper *stepper, const double *lam1, dep_rk_step *o
             }
         }
     }
-    return 1;
+    dep_cs_jacobian(stepper->constraints, rk->y1, stepper->t1, out->J_own);
+    return move <= limit || linear_miss(stepper, lam1, rk->y1) <= LINEAR_MISS;
 }
 
 /* The position pass's measurement for a trial lambda_{i+1}: the step's end by correcting the
@@ -695,19 +821,18 @@ static void measure_position(void *context, const double *lam1, dep_measurement 
     dep_stepper *stepper = context;
     dep_constraints *cs = stepper->constraints;
     const double *q1 = out->rk.y1;
-    if (stepper->base_valid && correct_base(stepper, lam1, &out->rk)) {
-        dep_cs_jacobian(cs, q1, stepper->t1, out->J_own);
-    } else {
+    out->jacobian_id = ++stepper->jacobian_ids;
+    if (!stepper->base_valid || !correct_base(stepper, lam1, out)) {
         integrate(stepper, lam1);
         copy_base(stepper, &out->rk);
         memcpy(out->J_own, stepper->base_J, (size_t)cs->row_start[cs->nc] * sizeof *out->J_own);
+        stepper->base_J_id = out->jacobian_id;
     }
     dep_cs_phi(cs, q1, stepper->t1, out->v);
     for (int i = 0; i < cs->nc; ++i) {
         out->v[i] = -out->v[i];
     }
     out->J = out->J_own;
-    out->jacobian_id = ++stepper->jacobian_ids;
     out->scale = dep_max_abs(q1, stepper->nq);
 }
 
@@ -991,7 +1116,7 @@ static int take_step(dep_stepper *stepper, const dep_state *state, const dep_pro
     stepper->profile = *profile;
     outcome->profile = *profile;
     stepper->t1 = state->t + h;
-    stepper->base_valid = 0;
+    stepper->base_valid = stepper->start_made = 0;
     stepper->integrations_this_step = 0;
     memcpy(stepper->y0, state->q, (size_t)nq * sizeof(double));
     memcpy(stepper->y0 + nq, state->qd, (size_t)nq * sizeof(double));
