@@ -86,19 +86,23 @@ void dep_history_add(dep_history *history, double t, const double *lam)
 /* ---- the profile ------------------------------------------------------------------------ */
 
 /* The Lagrange basis at `at` of the profile's nodes u[0..n-1] and 1 (the end): w[0..n].
-   Products only: the denominators are the profile's (set_inverse), for a basis evaluated at
-   every force evaluation. */
+   w_j = inverse_j prod_{m != j} (at - u_m), the products from both sides (the denominators
+   are the profile's, set_inverse): a basis evaluated at every force evaluation. */
 static void basis(const dep_profile *profile, double at, double *w)
 {
     int n = profile->nodes;
-    for (int j = 0; j <= n; ++j) {
-        double weight = profile->inverse[j];
-        for (int m = 0; m <= n; ++m) {
-            if (m != j) {
-                weight *= at - (m < n ? profile->u[m] : 1.0);
-            }
-        }
-        w[j] = weight;
+    double d[DEP_PROFILE_NODES + 1], left = 1.0, right = 1.0;
+    for (int m = 0; m < n; ++m) {
+        d[m] = at - profile->u[m];
+    }
+    d[n] = at - 1.0;
+    for (int j = 0; j <= n; ++j) { /* prod_{m < j} */
+        w[j] = left;
+        left *= d[j];
+    }
+    for (int j = n; j >= 0; --j) { /* times prod_{m > j} */
+        w[j] *= right * profile->inverse[j];
+        right *= d[j];
     }
 }
 

@@ -302,4 +302,9 @@ void dep_close(dep_run *run);                            /* NULL is fine */
 /* The index of parameter `name`, or -1. */
 int dep_parameter_index(const dep_model *model, const char *name);
 
+/* x as printf's "%.17g" writes it (the same characters: enough digits to read x back exactly),
+   into out (DEP_FORMAT_SIZE chars); returns its length. decimal.c: several times faster. */
+#define DEP_FORMAT_SIZE 32
+int dep_format_double(double x, char *out);
+
 #endif /* DEPSIM_H */

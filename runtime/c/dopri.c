@@ -45,17 +45,16 @@ int dep_rk_init(dep_rk_step *rk, int n, dep_arena *arena)
 }
 
 /* sum_k coefficients[k] K[k] (stages k < count) into out (n): each component summed in stage
-   order, as numpy's `coefficients @ K` (the loop runs over the contiguous components). */
+   order, as numpy's `coefficients @ K`, in a register (a running sum through out would be
+   stored and loaded again for every stage). */
 static void combine(const double *coefficients, int count, const double *K, int n, double *out)
 {
     for (int j = 0; j < n; ++j) {
-        out[j] = 0.0;
-    }
-    for (int k = 0; k < count; ++k) {
-        const double *stage = K + (size_t)k * (size_t)n;
-        for (int j = 0; j < n; ++j) {
-            out[j] += coefficients[k] * stage[j];
+        double sum = 0.0;
+        for (int k = 0; k < count; ++k) {
+            sum += coefficients[k] * K[(size_t)k * (size_t)n + j];
         }
+        out[j] = sum;
     }
 }
 

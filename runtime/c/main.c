@@ -260,12 +260,15 @@ static int write_csv(const dep_result *r, FILE *file)
         fprintf(file, ",%s", depsim_model.output_names[j]);
     }
     fprintf(file, "\n");
-    for (int i = 0; i < r->n; ++i) {
-        fprintf(file, "%.17g", r->times[i]);
+    char number[DEP_FORMAT_SIZE];
+    for (int i = 0; i < r->n; ++i) { /* as "%.17g" (dep_format_double) */
+        fwrite(number, 1, (size_t)dep_format_double(r->times[i], number), file);
         for (int j = 0; j < r->nout; ++j) {
-            fprintf(file, ",%.17g", r->outputs[(size_t)i * (size_t)r->nout + (size_t)j]);
+            putc(',', file);
+            fwrite(number, 1, (size_t)dep_format_double(r->outputs[(size_t)i * (size_t)r->nout
+                                                                    + (size_t)j], number), file);
         }
-        fprintf(file, "\n");
+        putc('\n', file);
     }
     return ferror(file) ? EXIT_FAILED : EXIT_OK;
 }
