@@ -430,6 +430,7 @@ typedef struct dep_stepper {
     double *lam_shift;      /* capacity */
     int *free_hinges, n_free; /* the coupled hinges: damping that matters at this step */
     double *mobile;         /* n_free x nq: Mc^-1 J_h^T e_k, constrained M^-1 at the end */
+    double *mobile_lam;     /* n_free x capacity: S^-1 J M^-1 J_h^T e_k, lambda's part */
     double *newton;         /* n_free x n_free: I + h V C J_h Mc^-1 J_h^T */
     double friction_rate;   /* max_k C_k (J_h Mc^-1 J_h^T)_kk at the last round 0 (1/s) */
     int friction_hinge;     /* its hinge */

@@ -182,6 +182,7 @@ int dep_stepper_init(dep_stepper *stepper, const dep_system *system, dep_constra
     stepper->Jh = dep_doubles(arena, nhnz);
     stepper->free_hinges = dep_bytes(arena, nh * sizeof *stepper->free_hinges);
     stepper->mobile = dep_doubles(arena, (size_t)system->n_friction * (size_t)nq + 1);
+    stepper->mobile_lam = dep_doubles(arena, (size_t)system->n_friction * (size_t)capacity + 1);
     stepper->newton = dep_doubles(arena, (size_t)system->n_friction
                                          * (size_t)(system->n_friction + 1) + 1);
     stepper->implicit = 0;
@@ -910,8 +911,9 @@ static void constrained_response(dep_stepper *stepper, const dep_measurement *po
 /* At round 0: J_h at the new state, the hinges whose friction can act (free), each one's law
    damping C_k and an upper bound of its rate on the mechanism, C_k (J_h M^-1 J_h^T)_kk (Mc^-1
    <= M^-1); the coupled ones, whose bound times h exceeds FRICTION_WEAK, get their exact
-   response columns Mc^-1 J_h^T e_k (mobile), and friction_rate max_k C_k (J_h Mc^-1 J_h^T)_kk
-   over them (else the largest bound). */
+   response columns Mc^-1 J_h^T e_k (mobile) and the multipliers' S^-1 J M^-1 J_h^T e_k
+   (mobile_lam), and friction_rate max_k C_k (J_h Mc^-1 J_h^T)_kk over them (else the largest
+   bound). */
 static void friction_mobility(dep_stepper *stepper, const double *q1, const dep_measurement *pos,
                               const double *slope)
 {
@@ -947,7 +949,8 @@ static void friction_mobility(dep_stepper *stepper, const double *q1, const dep_
         int i = stepper->free_hinges[k];
         double *out = stepper->mobile + (size_t)k * (size_t)nq;
         unit[i] = 1.0;
-        constrained_response(stepper, pos, unit, out, NULL);
+        constrained_response(stepper, pos, unit, out,
+                             stepper->mobile_lam + (size_t)k * (size_t)stepper->capacity);
         unit[i] = 0.0;
         system->model->hinge_rates(q1, out, system->p, stepper->friction_now);
         if (slope[i] * stepper->friction_now[i] > stepper->friction_rate) {
@@ -1000,7 +1003,9 @@ static void solve_small(int n, double *A, double *b)
    being h V J_h Mc^-1 J_h^T d(tau_end) and the law's damping C = -d law / d rate: the coupled
    hinges F solve (I + h V C_F G_FF) d_F = r_F - h V C_F J_h,F Mc^-1 J_h^T r_Z with
    G = J_h Mc^-1 J_h^T, the others (Z, damping too weak to matter) take d_Z = r_Z; and
-   lambda_{i+1} moves with d so that the rows stay restored. */
+   lambda_{i+1} moves with d so that the rows stay restored. The responses are linear: one
+   constrained solve, for r_Z, and the coupled hinges' columns (friction_mobility) give those
+   of r and d. */
 static int friction_settled(dep_stepper *stepper, const double *q1, const double *qd1,
                             int round, const dep_measurement *pos)
 {
@@ -1008,6 +1013,7 @@ static int friction_settled(dep_stepper *stepper, const double *q1, const double
     int nq = stepper->nq, nh = system->nh, nc = stepper->constraints->nc, nf;
     double h = stepper->h, V = stepper->profile.velocity, P = stepper->profile.position;
     double sum = 0.0, *G = stepper->newton, *slope = stepper->slope, *r = stepper->residual_end;
+    double *d = stepper->dtau, *rZ = stepper->friction_now, *response = stepper->dqd;
     dep_friction_law(system, q1, qd1, stepper->law); /* leaves the rates in system->rates */
     for (int i = 0; i < nh; ++i) {
         const dep_hinge_mechanics *hinge = &system->hinges[i];
@@ -1017,24 +1023,26 @@ static int friction_settled(dep_stepper *stepper, const double *q1, const double
     if (round == 0) {
         friction_mobility(stepper, q1, pos, slope);
     }
-    constrained_response(stepper, pos, r, stepper->dqd, NULL);
-    for (int j = 0; j < nq; ++j) { /* the moves of q and qd in tolerance units */
-        double move = h * h * P * stepper->dqd[j] / (stepper->tol * (1.0 + fabs(q1[j])));
-        double rate = h * V * stepper->dqd[j] / (stepper->tol * (1.0 + fabs(qd1[j])));
+    nf = stepper->n_free;
+    memcpy(rZ, r, (size_t)nh * sizeof *rZ);
+    for (int k = 0; k < nf; ++k) {
+        rZ[stepper->free_hinges[k]] = 0.0;
+    }
+    constrained_response(stepper, pos, rZ, response, stepper->lam_shift);
+    for (int j = 0; j < nq; ++j) { /* r's move: r_Z's and the coupled hinges' columns */
+        double total = response[j];
+        for (int k = 0; k < nf; ++k) {
+            total += r[stepper->free_hinges[k]] * stepper->mobile[(size_t)k * (size_t)nq + j];
+        }
+        double move = h * h * P * total / (stepper->tol * (1.0 + fabs(q1[j])));
+        double rate = h * V * total / (stepper->tol * (1.0 + fabs(qd1[j])));
         sum += move * move + rate * rate;
     }
     if (sqrt(sum / (2 * nq)) <= FRICTION_LIMIT) {
         return 1;
     }
-    nf = stepper->n_free;
-    double *d = stepper->dtau, *rZ = stepper->friction_now;
-    memcpy(rZ, r, (size_t)nh * sizeof *rZ);
-    for (int k = 0; k < nf; ++k) {
-        rZ[stepper->free_hinges[k]] = 0.0;
-    }
     if (nf > 0) { /* the coupled hinges' Newton system, with the others' effect on them */
-        constrained_response(stepper, pos, rZ, stepper->dqd, NULL);
-        system->model->hinge_rates(q1, stepper->dqd, system->p, stepper->law_scratch);
+        system->model->hinge_rates(q1, response, system->p, stepper->law_scratch);
         for (int a = 0; a < nf; ++a) {
             int i = stepper->free_hinges[a];
             d[a] = r[i] - h * V * slope[i] * stepper->law_scratch[i];
@@ -1055,9 +1063,12 @@ static int friction_settled(dep_stepper *stepper, const double *q1, const double
     for (int i = 0; i < nh; ++i) {
         stepper->friction_end[i] += rZ[i];
     }
-    constrained_response(stepper, pos, rZ, stepper->dqd, stepper->lam_shift);
-    for (int i = 0; i < nc; ++i) {
-        stepper->lam_pos[i] += stepper->lam_shift[i];
+    for (int i = 0; i < nc; ++i) { /* lambda's move: r_Z's and d_F times the columns' */
+        double shift = stepper->lam_shift[i];
+        for (int k = 0; k < nf; ++k) {
+            shift += d[k] * stepper->mobile_lam[(size_t)k * (size_t)stepper->capacity + i];
+        }
+        stepper->lam_pos[i] += shift;
     }
     return 0;
 }
