@@ -69,9 +69,15 @@ typedef struct dep_settings {
        holds DOPRI's step at its stability bound; DEP_STEPPING_EXPLICIT (1) DOPRI throughout;
        DEP_STEPPING_IMPLICIT (2) the linearly implicit step throughout (a model with beams). */
     int stepping;
+    /* What each output row keeps: DEP_ROWS_ALL (0) every column of dep_result; DEP_ROWS_OUTPUTS
+       (1) the outputs and what the summary reads (multipliers, hinge torques, dissipated work),
+       q, qd, the hinge angles and rates, energies and residuals left nought: the standalone
+       program, which writes the outputs alone, saves their evaluation at every row. */
+    int rows;
 } dep_settings;
 
 enum dep_stepping { DEP_STEPPING_AUTO = 0, DEP_STEPPING_EXPLICIT = 1, DEP_STEPPING_IMPLICIT = 2 };
+enum dep_rows { DEP_ROWS_ALL = 0, DEP_ROWS_OUTPUTS = 1 };
 
 #define DEP_MAX_STEPS 1e6 /* the default of dep_settings.max_steps */
 

@@ -220,6 +220,11 @@ int dep_check_settings(const dep_model *model, const double *p, const dep_settin
                  "(2), got %d", settings->stepping);
         return dep_plain_error(error, DEP_SETTINGS_ERROR, message);
     }
+    if (settings->rows != DEP_ROWS_ALL && settings->rows != DEP_ROWS_OUTPUTS) {
+        snprintf(message, sizeof message, "rows must be all (0) or outputs (1), got %d",
+                 settings->rows);
+        return dep_plain_error(error, DEP_SETTINGS_ERROR, message);
+    }
     if (settings->stepping == DEP_STEPPING_IMPLICIT && model->nkz == 0) {
         return dep_plain_error(error, DEP_SETTINGS_ERROR, "stepping implicit needs stiff "
                                "forces with a Jacobian (a model with beams); this model has "

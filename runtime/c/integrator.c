@@ -531,7 +531,7 @@ static int advance(dep_run *run, double *h)
 dep_settings dep_default_settings(const dep_model *model)
 {
     dep_settings settings = {model->t_end, model->dt_out, model->tol, 1, NULL, NULL, 0.0,
-                             NULL, 0, DEP_STEPPING_AUTO};
+                             NULL, 0, DEP_STEPPING_AUTO, DEP_ROWS_ALL};
     return settings;
 }
 

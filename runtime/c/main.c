@@ -307,6 +307,7 @@ int main(int argc, char **argv)
     }
     memcpy(o.p, depsim_model.parameter_defaults, (size_t)depsim_model.np * sizeof(double));
     o.settings = dep_default_settings(&depsim_model);
+    o.settings.rows = DEP_ROWS_OUTPUTS; /* the CSV's outputs and the summary's loads and work */
     o.out = NULL;
     o.list = 0;
     int status = parse_arguments(argc, argv, &o);

@@ -54,6 +54,7 @@ int dep_recorder_init(dep_recorder *rec, const dep_system *system, const dep_set
     memset(rec, 0, sizeof *rec);
     rec->system = system;
     rec->arena = arena;
+    rec->outputs_only = settings->rows == DEP_ROWS_OUTPUTS;
     int n = output_times(settings->t_end, settings->dt_out, dep_max_output_times(system),
                          &rec->times, arena);
     if (n >= 0) {
@@ -171,6 +172,20 @@ int dep_record(dep_recorder *rec, double t, const double *q, const double *qd, c
     if (keep_multipliers(rec, lam, cs) != DEP_OK) {
         return DEP_MEMORY_ERROR;
     }
+    rec->t[row] = t;
+    m->outputs(q, qd, t, s->p, rec->outputs + row * (size_t)m->nout);
+    memcpy(rec->work + row * (size_t)s->nd, work, (size_t)s->nd * sizeof(double));
+    if (s->mechanism != NULL) {
+        dep_mechanism_hinge_torques(s->mechanism, q, qd, cs, lam,
+                                    rec->torque + row * (size_t)m->nh);
+    } else {
+        dep_lock_torques(m, cs, lam, rec->torque + row * (size_t)m->nh);
+    }
+    rec->rows++;
+    rec->lam_start[rec->rows] = rec->lam_count;
+    if (rec->outputs_only) {
+        return DEP_OK;
+    }
     dep_system_force(s, q, qd, t, rec->f);
     dep_cs_jacobian(cs, q, t, rec->J);
     dep_cs_transpose_times(cs, rec->J, lam, rec->qdd);
@@ -185,22 +200,11 @@ int dep_record(dep_recorder *rec, double t, const double *q, const double *qd, c
     residuals[1] = dep_max_abs(rec->v, nc);
     dep_cs_v_acc(cs, q, qd, rec->qdd, t, rec->J, rec->v);
     residuals[2] = dep_max_abs(rec->v, nc);
-    rec->t[row] = t;
     memcpy(rec->q + row * nq, q, nq * sizeof(double));
     memcpy(rec->qd + row * nq, qd, nq * sizeof(double));
     m->hinge_angles(q, s->p, rec->hinge_angles + row * (size_t)m->nh);
     m->hinge_rates(q, qd, s->p, rec->hinge_rates + row * (size_t)m->nh);
-    m->outputs(q, qd, t, s->p, rec->outputs + row * (size_t)m->nout);
     dep_system_energy(s, q, qd, t, rec->energy + row * (size_t)s->ne);
-    memcpy(rec->work + row * (size_t)s->nd, work, (size_t)s->nd * sizeof(double));
-    if (s->mechanism != NULL) {
-        dep_mechanism_hinge_torques(s->mechanism, q, qd, cs, lam,
-                                    rec->torque + row * (size_t)m->nh);
-    } else {
-        dep_lock_torques(m, cs, lam, rec->torque + row * (size_t)m->nh);
-    }
-    rec->rows++;
-    rec->lam_start[rec->rows] = rec->lam_count;
     return DEP_OK;
 }
 
@@ -216,6 +220,17 @@ static double *copy_doubles(const double *from, size_t n, int *failed)
     if (n) {
         memcpy(to, from, n * sizeof *to);
     }
+    return to;
+}
+
+/* A column the rows kept (copy_doubles), or nought when they did not (DEP_ROWS_OUTPUTS). */
+static double *kept_doubles(const dep_recorder *rec, const double *from, size_t n, int *failed)
+{
+    if (!rec->outputs_only) {
+        return copy_doubles(from, n, failed);
+    }
+    double *to = calloc(n ? n : 1, sizeof *to);
+    *failed |= to == NULL;
     return to;
 }
 
@@ -276,22 +291,22 @@ int dep_recorder_result(dep_recorder *rec, dep_result *result)
     result->row_names = copy_names((const char *const *)rec->names, rec->n_names, &failed);
     result->params = copy_doubles(rec->system->p, (size_t)m->np, &failed);
     result->times = copy_doubles(rec->t, n, &failed);
-    result->q = copy_doubles(rec->q, n * (size_t)m->nq, &failed);
-    result->qd = copy_doubles(rec->qd, n * (size_t)m->nq, &failed);
+    result->q = kept_doubles(rec, rec->q, n * (size_t)m->nq, &failed);
+    result->qd = kept_doubles(rec, rec->qd, n * (size_t)m->nq, &failed);
     result->lam = dense_multipliers(rec, &failed);
-    result->hinge_angles = copy_doubles(rec->hinge_angles, n * (size_t)m->nh, &failed);
-    result->hinge_rates = copy_doubles(rec->hinge_rates, n * (size_t)m->nh, &failed);
+    result->hinge_angles = kept_doubles(rec, rec->hinge_angles, n * (size_t)m->nh, &failed);
+    result->hinge_rates = kept_doubles(rec, rec->hinge_rates, n * (size_t)m->nh, &failed);
     result->outputs = copy_doubles(rec->outputs, n * (size_t)m->nout, &failed);
-    result->energy = copy_doubles(rec->energy, n * (size_t)result->ne, &failed);
+    result->energy = kept_doubles(rec, rec->energy, n * (size_t)result->ne, &failed);
     result->dissipated = copy_doubles(rec->work, n * (size_t)result->nd, &failed);
     result->hinge_torque = copy_doubles(rec->torque, n * (size_t)m->nh, &failed);
     result->energy_names = copy_names(rec->system->energy_names, result->ne, &failed);
     result->dissipator_names = copy_names(rec->system->dissipator_names, result->nd, &failed);
     double **levels[3] = {&result->residual_pos, &result->residual_vel, &result->residual_acc};
     for (int level = 0; level < 3; ++level) {
-        double *column = *levels[level] = malloc((n ? n : 1) * sizeof(double));
+        double *column = *levels[level] = calloc(n ? n : 1, sizeof(double));
         failed |= column == NULL;
-        for (size_t r = 0; column != NULL && r < n; ++r) {
+        for (size_t r = 0; column != NULL && !rec->outputs_only && r < n; ++r) {
             column[r] = rec->residuals[3 * r + (size_t)level];
         }
     }

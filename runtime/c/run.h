@@ -54,6 +54,7 @@ void dep_loads_observe(dep_loads *loads, double t, const double *forces, const d
 typedef struct dep_recorder {
     const dep_system *system;
     int n_times, next_index, rows, capacity;
+    int outputs_only; /* dep_settings.rows == DEP_ROWS_OUTPUTS */
     double *times;
     double *t, *q, *qd, *hinge_angles, *hinge_rates, *outputs, *residuals, *energy, *work;
     double *torque;

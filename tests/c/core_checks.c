@@ -13,7 +13,12 @@
  *                                qdd) at t_prior for one coordinate, then N times in [t0, t1];
  *                                prints q, qd on the step interpolant at each time, with the
  *                                prior point and without it
+ *   core_checks rows T           the model to T with every row column (DEP_ROWS_ALL) and with
+ *                                the outputs' alone (DEP_ROWS_OUTPUTS): prints the largest
+ *                                difference of the columns both keep, then the largest value
+ *                                of those the second leaves nought
  */
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -250,8 +255,58 @@ static int interpolant(int n)
     return 0;
 }
 
+static double largest_difference(const double *a, const double *b, size_t n)
+{
+    double most = 0.0;
+    for (size_t i = 0; i < n; ++i) {
+        double d = fabs(a[i] - b[i]);
+        most = d > most || (d != d && a[i] == a[i]) ? d : most; /* (NaN in both: equal) */
+    }
+    return most;
+}
+
+static int rows(double t_end)
+{
+    const dep_model *m = &depsim_model;
+    dep_result all, lean;
+    dep_error error;
+    dep_settings settings = dep_default_settings(m);
+    settings.t_end = t_end;
+    if (dep_simulate(m, NULL, &settings, NULL, 0, &all, &error) != DEP_OK) {
+        return fail(error.message);
+    }
+    settings.rows = DEP_ROWS_OUTPUTS;
+    if (dep_simulate(m, NULL, &settings, NULL, 0, &lean, &error) != DEP_OK) {
+        return fail(error.message);
+    }
+    size_t n = (size_t)all.n;
+    double kept = fabs((double)all.n - (double)lean.n);
+    kept = fmax(kept, largest_difference(all.times, lean.times, n));
+    kept = fmax(kept, largest_difference(all.outputs, lean.outputs, n * (size_t)all.nout));
+    kept = fmax(kept, largest_difference(all.lam, lean.lam, n * (size_t)all.n_rows));
+    kept = fmax(kept, largest_difference(all.hinge_torque, lean.hinge_torque, n * (size_t)all.nh));
+    kept = fmax(kept, largest_difference(all.dissipated, lean.dissipated, n * (size_t)all.nd));
+    double *zero = calloc(n * (size_t)(all.nq + all.nh + all.ne) + 1, sizeof *zero), left = 0.0;
+    if (zero == NULL) {
+        return fail("out of memory");
+    }
+    left = fmax(left, largest_difference(lean.q, zero, n * (size_t)all.nq));
+    left = fmax(left, largest_difference(lean.qd, zero, n * (size_t)all.nq));
+    left = fmax(left, largest_difference(lean.hinge_angles, zero, n * (size_t)all.nh));
+    left = fmax(left, largest_difference(lean.energy, zero, n * (size_t)all.ne));
+    left = fmax(left, largest_difference(lean.residual_pos, zero, n));
+    printf("%.17g %.17g\n", kept, left);
+    free(zero);
+    dep_result_free(&all);
+    dep_result_free(&lean);
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
+    if (argc == 3 && strcmp(argv[1], "rows") == 0) {
+        return rows(atof(argv[2]));
+    }
     if (argc == 3 && strcmp(argv[1], "iteration") == 0) {
         return iteration(atof(argv[2]));
     }
@@ -268,5 +323,5 @@ int main(int argc, char **argv)
         return interpolant(atoi(argv[2]));
     }
     return fail("usage: core_checks iteration H | fixed N T [TOL] | fixed_implicit N T [TOL] | "
-                "project NQ NC | interpolant N");
+                "project NQ NC | interpolant N | rows T");
 }
