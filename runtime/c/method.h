@@ -226,8 +226,9 @@ typedef struct dep_multipliers { /* scratch of the iteration and its Schur-compl
     int schur_envelope;        /* 1: S and L held in envelope form (a diagonal mass matrix) */
     dep_schur_kept kept[DEP_SCHUR_KEPT]; /* other mobilities' factors; next: the one to reuse */
     int next_kept;
-    dep_arena *arena;          /* grows S and L (room doubles each) for a wider envelope */
-    size_t room;
+    dep_arena *arena;          /* grows S and L (room doubles each) and MinvJT (GJ_rows x nq)
+                                  as they are first needed (schur_room) */
+    size_t room, GJ_rows;
     int *first, *offset;       /* capacity: row a of S spans columns first[a]..a, from offset[a] */
     dep_envelope envelope;     /* that form: first, offset, S and L */
     long long envelope_pattern; /* the rows' pattern (cs->pattern) the form was laid out for */

@@ -33,6 +33,33 @@
 
 const char *const dep_stage_names[3] = {"position", "velocity", "acceleration"};
 
+/* Room for S and L of `size` entries each (schur_room: allocated as first needed, twice that
+   when more is needed; an envelope of a few rows needs a few dozen, a dense S of 95 rows
+   9,025), and for the dense S's G J^T rows (nc x nq); 0 when out of memory. */
+static int schur_room(dep_multipliers *mp, size_t size, int nc)
+{
+    if (size > mp->room) {
+        size_t room = 2 * size;
+        double *S = dep_doubles(mp->arena, room), *L = dep_doubles(mp->arena, room);
+        if (S == NULL || L == NULL) {
+            return 0;
+        }
+        mp->S = mp->envelope.A = S;
+        mp->L = mp->envelope.L = L;
+        mp->room = room;
+    }
+    if ((size_t)nc > mp->GJ_rows) {
+        size_t rows = 2 * (size_t)nc < (size_t)mp->capacity ? 2 * (size_t)nc : (size_t)mp->capacity;
+        double *GJ = dep_doubles(mp->arena, rows * (size_t)mp->nq);
+        if (GJ == NULL) {
+            return 0;
+        }
+        mp->MinvJT = GJ;
+        mp->GJ_rows = rows;
+    }
+    return 1;
+}
+
 int dep_multipliers_init(dep_multipliers *mp, const dep_mass *mass,
                          const dep_constraints *cs, int capacity, dep_arena *arena)
 {
@@ -45,10 +72,6 @@ int dep_multipliers_init(dep_multipliers *mp, const dep_mass *mass,
     mp->schur_id = -1;
     mp->envelope_pattern = -1;
     mp->arena = arena;
-    mp->room = (size_t)EXPLICIT_BELOW * EXPLICIT_BELOW; /* S and L; an envelope may grow them */
-    mp->S = dep_doubles(arena, mp->room);
-    mp->L = dep_doubles(arena, mp->room);
-    mp->MinvJT = dep_doubles(arena, (size_t)EXPLICIT_BELOW * nq);
     mp->first = dep_bytes(arena, nc * sizeof *mp->first);
     mp->offset = dep_bytes(arena, (nc + 1) * sizeof *mp->offset);
     mp->envelope = (dep_envelope){0, mp->first, mp->offset, mp->S, mp->L,
@@ -317,15 +340,8 @@ static int envelope_layout(dep_multipliers *mp, int nc)
     for (int a = 0; a < nc; ++a) {
         mp->offset[a + 1] = mp->offset[a] + a - first[a] + 1;
     }
-    if ((size_t)mp->offset[nc] > mp->room) { /* a wider envelope than any before: more room */
-        size_t room = 2 * (size_t)mp->offset[nc];
-        double *S = dep_doubles(mp->arena, room), *L = dep_doubles(mp->arena, room);
-        if (S == NULL || L == NULL) {
-            return 0;
-        }
-        mp->S = mp->envelope.A = S;
-        mp->L = mp->envelope.L = L;
-        mp->room = room;
+    if (!schur_room(mp, (size_t)mp->offset[nc], 0)) {
+        return 0;
     }
     mp->envelope_pattern = mp->cs->pattern;
     return 1;
@@ -445,7 +461,7 @@ static int take_factor(dep_multipliers *mp, const double *J, long long id, int n
             }
             serves = e == nnz - 1;
         }
-        if (!serves) {
+        if (!serves || !schur_room(mp, (size_t)nc * (size_t)nc, 0)) {
             continue;
         }
         copy_factor(nc, nnz, kept->S, kept->L, kept->diag, kept->J, mp->S, mp->L, mp->diag,
@@ -487,7 +503,7 @@ static void schur_for(dep_multipliers *mp, const double *J, long long id, int nc
         return;
     }
     mp->schur_envelope = 0; /* (out of memory for the envelope: conjugate gradients) */
-    mp->schur_explicit = nc < EXPLICIT_BELOW;
+    mp->schur_explicit = nc < EXPLICIT_BELOW && schur_room(mp, (size_t)nc * (size_t)nc, nc);
     const int *row_start = mp->cs->row_start, *cols = mp->cs->row_cols;
     for (int b = 0; b < nc; ++b) { /* row b of (G J^T)^T; kept only to form S */
         double *GJb = mp->schur_explicit ? mp->MinvJT + (size_t)b * (size_t)nq : mp->work;
