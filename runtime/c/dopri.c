@@ -202,12 +202,19 @@ void dep_interpolate(const double *data, double t0, double h, int nq, double t, 
                      double *qd)
 {
     double x = (t - t0) / h, r = data[12 * nq];
-    double x2 = x * x, x3 = pow(x, 3);
+    double x2 = x * x, x3 = x2 * x;
     double x4 = x3 * x, x5 = x3 * x2;
     double quintic[6] = {1 - 10 * x3 + 15 * x4 - 6 * x5, x - 6 * x3 + 8 * x4 - 3 * x5,
                          0.5 * (x2 - 3 * x3 + 3 * x4 - x5), 10 * x3 - 15 * x4 + 6 * x5,
                          -4 * x3 + 7 * x4 - 3 * x5, 0.5 * (x3 - 2 * x4 + x5)};
     double cubic[4] = {2 * x3 - 3 * x2 + 1, x3 - 2 * x2 + x, 3 * x2 - 2 * x3, x3 - x2};
+    double through[6]; /* the rate's weights of v (prior, start, end), then of d, at x */
+    if (r > 0.0) {
+        for (int m = 0; m < 6; ++m) {
+            const double v[3] = {m == 0, m == 1, m == 2}, d[3] = {m == 3, m == 4, m == 5};
+            through[m] = rate_through_three(x, r, v, d);
+        }
+    }
     for (int j = 0; j < nq; ++j) {
         double value = 0.0;
         for (int k = 0; k < 6; ++k) {
@@ -215,9 +222,9 @@ void dep_interpolate(const double *data, double t0, double h, int nq, double t, 
         }
         q[j] = value;
         if (r > 0.0) {
-            const double v[3] = {data[10 * nq + j], data[6 * nq + j], data[8 * nq + j]};
-            const double d[3] = {data[11 * nq + j], data[7 * nq + j], data[9 * nq + j]};
-            qd[j] = rate_through_three(x, r, v, d);
+            qd[j] = through[0] * data[10 * nq + j] + through[1] * data[6 * nq + j]
+                    + through[2] * data[8 * nq + j] + through[3] * data[11 * nq + j]
+                    + through[4] * data[7 * nq + j] + through[5] * data[9 * nq + j];
         } else {
             double rate = 0.0;
             for (int k = 0; k < 4; ++k) {
