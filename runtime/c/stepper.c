@@ -815,8 +815,11 @@ static int correct_base(dep_stepper *stepper, const double *lam1, dep_measuremen
             }
         }
     }
+    if (move > limit && !(linear_miss(stepper, lam1, rk->y1) <= MEASURED_MISS)) {
+        return 0;
+    }
     dep_cs_jacobian(stepper->constraints, rk->y1, stepper->t1, out->J_own);
-    return move <= limit || linear_miss(stepper, lam1, rk->y1) <= MEASURED_MISS;
+    return 1;
 }
 
 /* The position pass's measurement for a trial lambda_{i+1}: the step's end by correcting the
