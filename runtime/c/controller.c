@@ -56,6 +56,7 @@ int dep_history_init(dep_history *history, int capacity, dep_arena *arena)
     for (int k = 0; k < DEP_HISTORY; ++k) {
         history->lam[k] = dep_doubles(arena, (size_t)capacity);
     }
+    history->miss = dep_doubles(arena, (size_t)capacity);
     return arena->failed ? DEP_MEMORY_ERROR : DEP_OK;
 }
 
@@ -63,6 +64,7 @@ void dep_history_reset(dep_history *history, double t, const double *lam, int nc
 {
     history->count = 1;
     history->nc = nc;
+    history->miss_h = 0.0;
     history->t[0] = t;
     memcpy(history->lam[0], lam, (size_t)nc * sizeof *lam);
 }
@@ -198,8 +200,12 @@ double dep_profile_end_weight(const dep_profile *profile, double t)
 
 /* The position pass's starting lambda_{i+1}: the end value for which the profile pushes the
    step end as the multipliers extrapolated from every accepted point would (for frozen
-   Phi_q): integral (1 - s) (profile(s) - extrapolation(s)) ds = 0. */
-void dep_history_predict(const dep_history *history, const dep_profile *profile, double *out)
+   Phi_q): integral (1 - s) (profile(s) - extrapolation(s)) ds = 0; plus the miss of this
+   guess at the last accepted step (dep_history_learn), scaled by (h / its h)^4, when that
+   step's guess was made from as many points. The miss is the extrapolation's O(h^4) error
+   and DOPRI's own normal error over h^2: both smooth from step to step, so the last one
+   foretells the next (docs/method.md, 3). */
+void dep_history_predict(dep_history *history, const dep_profile *profile, double *out)
 {
     int n = history->count, nc = history->nc, nodes = profile->nodes;
     double coefficients[DEP_HISTORY] = {0}, w[DEP_PROFILE_NODES + 1];
@@ -226,6 +232,26 @@ void dep_history_predict(const dep_history *history, const dep_profile *profile,
         }
         out[i] = sum / profile->position;
     }
+    history->applied = 0.0;
+    if (history->miss_h > 0.0 && history->miss_count == n) {
+        double r = profile->h / history->miss_h;
+        history->applied = r * r * r * r;
+        for (int i = 0; i < nc; ++i) {
+            out[i] += history->applied * history->miss[i];
+        }
+    }
+}
+
+/* After an accepted step of size h: its guess of lambda_{i+1} (dep_history_predict's) missed
+   the value the position pass found by found - guess; kept as the miss of the guess without
+   the part of the last miss it applied. Before dep_history_add. */
+void dep_history_learn(dep_history *history, double h, const double *guess, const double *found)
+{
+    for (int i = 0; i < history->nc; ++i) {
+        history->miss[i] = found[i] - guess[i] + history->applied * history->miss[i];
+    }
+    history->miss_h = h;
+    history->miss_count = history->count;
 }
 
 /* ---- errors and the step factor ---------------------------------------------------------- */

@@ -184,7 +184,9 @@ static double first_step(dep_run *run)
 /* The ODE method's error estimate less what the passes remove: its position and velocity
    parts projected onto the tangent space of the constraints at the step end along what the
    pass's correction moves (tangential; G = M^-1 for DOPRI, the Rosenbrock step's responses
-   otherwise; docs/method.md, 4). Into run->tangent. */
+   otherwise), and the prescribed frictions' works less what they move with the positions'
+   normal part, -tau d(theta) (the correction moves them so; docs/method.md, 4). Into
+   run->tangent. */
 static void tangential_error(dep_run *run, const dep_outcome *outcome)
 {
     const dep_rk_step *rk = outcome->rk;
@@ -200,6 +202,13 @@ static void tangential_error(dep_run *run, const dep_outcome *outcome)
     dep_stepper_use_mobility(stepper, DEP_ACCELERATION);
     if (!solved_all) { /* a singular S: measure the whole error */
         memcpy(run->tangent, rk->error, (size_t)run->ny * sizeof *run->tangent);
+    } else if (outcome->prescribed) {
+        double *removed = run->normal; /* the positions' move that removes their normal part */
+        for (int j = 0; j < nq; ++j) {
+            removed[j] = run->tangent[j] - rk->error[j];
+        }
+        dep_stepper_work_move(stepper, outcome->state.q, removed,
+                              run->tangent + 2 * nq + run->model->nd);
     }
 }
 
@@ -496,6 +505,7 @@ static int advance(dep_run *run, double *h)
               run->outcome.integrations, accepted ? "accepted" : "rejected");
         if (accepted) {
             dep_tally_accept(&run->tally, run->outcome.reports, *h);
+            dep_history_learn(&run->history, *h, run->predicted, run->stepper.lam_first);
             dep_run_attach_prior(run, &run->outcome);
             run->err_previous = dep_step_error(&errors);
             run->h_cap = run->h_cap < 1e300 ? run->h_cap * CAP_RELAX : INFINITY;

@@ -271,6 +271,10 @@ typedef struct dep_history {
     int count, nc;
     double t[DEP_HISTORY];
     double *lam[DEP_HISTORY]; /* oldest first; capacity each */
+    double *miss;             /* capacity: the predictor's miss at the last accepted step */
+    double miss_h, applied;   /* that step's h (0: none since the reset), the share of the
+                                 miss in the last guess */
+    int miss_count;           /* the accepted points the guess was made from at that step */
 } dep_history;
 
 /* lambda(t) over a step t0 -> t0 + h: the polynomial through the last `nodes` accepted
@@ -301,7 +305,8 @@ void dep_profile_hold(dep_profile *profile, double t0, const double *lam);
 void dep_profile_value(const dep_profile *profile, const double *lam_end, double t, int nc,
                        double *out);
 double dep_profile_end_weight(const dep_profile *profile, double t); /* l(u) of the end value */
-void dep_history_predict(const dep_history *history, const dep_profile *profile, double *out);
+void dep_history_predict(dep_history *history, const dep_profile *profile, double *out);
+void dep_history_learn(dep_history *history, double h, const double *guess, const double *found);
 void dep_weights(const double *y0, const double *y1, int n, double tol, double *scale);
 double dep_rms(const double *x, const double *scale, int n);
 int dep_divided_difference(const dep_profile *profile, const dep_history *history,
@@ -400,6 +405,7 @@ typedef struct dep_stepper {
                                                M^-1 of the start's, end's column (2 nq) */
     int start_made;
     double *q1, *phi_t1, *lam_pos, *lam_solved;
+    double *lam_first; /* lambda_{i+1} as the first round's position pass found it */
     int base_valid, integrations_this_step;
     double *restart_J;
     dep_acceleration_work accel;
@@ -448,6 +454,12 @@ void dep_stepper_derivative(dep_stepper *stepper, const dep_state *state, double
 void dep_stepper_rhs(void *context, double t, const double *y, double *dy);
 int dep_stepper_tangential(dep_stepper *stepper, const double *J, long long J_id, double *v,
                            double *scratch);
+/* The works of the frictions prescribed over the last step (work: nfriction, after the
+   model's own dissipators) moved with the end positions q moved by dq: -tau d(theta), tau the
+   friction's end value. What a position correction does to them; it is the part of their
+   error that a correction carries away (integrator.c, tangential_error). */
+void dep_stepper_work_move(dep_stepper *stepper, const double *q, const double *dq,
+                           double *work);
 void dep_stepper_set_rhs(dep_stepper *stepper, const dep_profile *profile,
                          const double *lam_end);
 int dep_acceleration(dep_stepper *stepper, const double *q, const double *qd, double t,

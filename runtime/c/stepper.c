@@ -133,7 +133,8 @@ int dep_stepper_init(dep_stepper *stepper, const dep_system *system, dep_constra
         *vectors[i] = dep_doubles(arena, (size_t)ny);
     }
     double **rows[] = {&stepper->rhs_lam, &stepper->base_lam, &stepper->phi_t1,
-                       &stepper->lam_pos, &stepper->lam_solved, &stepper->lam_shift};
+                       &stepper->lam_pos, &stepper->lam_first, &stepper->lam_solved,
+                       &stepper->lam_shift};
     for (size_t i = 0; i < sizeof rows / sizeof *rows; ++i) {
         *rows[i] = dep_doubles(arena, (size_t)capacity);
     }
@@ -761,6 +762,19 @@ static double linear_miss(dep_stepper *stepper, const double *lam1, const double
     return sqrt(sum / (2 * nq));
 }
 
+void dep_stepper_work_move(dep_stepper *stepper, const double *q, const double *dq,
+                           double *work)
+{
+    const dep_system *system = stepper->system;
+    double *turn = stepper->friction_now;
+    system->model->hinge_rates(q, dq, system->p, turn);
+    for (int i = 0, k = 0; i < system->nh; ++i) {
+        if (system->hinges[i].has_friction) {
+            work[k++] -= stepper->friction_end[i] * turn[i];
+        }
+    }
+}
+
 /* The base trajectory's end moved to lambda_{i+1} = lam1 (and the friction's end value) by
    the linear response (DOPRI: respond_along; Rosenbrock: through its stages, Phi_q frozen at
    the end), into out with its Jacobian; 0 (out not valid) when the linearisation is not
@@ -805,13 +819,13 @@ static int correct_base(dep_stepper *stepper, const double *lam1, dep_measuremen
     }
     if (stepper->prescribed) { /* each friction's work: -tau d(theta), -d(tau) l(u) rate dt */
         const dep_system *system = stepper->system;
-        double *work = rk->y1 + 2 * nq + system->model->nd, *turn = stepper->friction_now;
+        double *work = rk->y1 + 2 * nq + system->model->nd;
+        dep_stepper_work_move(stepper, rk->y1, stepper->dq, work);
         system->model->hinge_rates(rk->y1, rk->y1 + nq, system->p, stepper->law);
-        system->model->hinge_rates(rk->y1, stepper->dq, system->p, turn);
         for (int i = 0, k = 0; i < system->nh; ++i) {
             if (system->hinges[i].has_friction) {
-                work[k++] -= stepper->friction_end[i] * turn[i] + stepper->h
-                             * stepper->profile.velocity * stepper->residual[i] * stepper->law[i];
+                work[k++] -= stepper->h * stepper->profile.velocity * stepper->residual[i]
+                             * stepper->law[i];
             }
         }
     }
@@ -1173,6 +1187,9 @@ static int take_step(dep_stepper *stepper, const dep_state *state, const dep_pro
         memcpy(new->q, stepper->final_position->rk.y1, (size_t)nq * sizeof(double));
         dep_cs_phi_t(cs, new->q, stepper->t1, stepper->phi_t1);
         memcpy(stepper->lam_pos, new->lam, (size_t)nc * sizeof(double));
+        if (round == 0) {
+            memcpy(stepper->lam_first, new->lam, (size_t)nc * sizeof(double));
+        }
 
         dep_measurement *velocity[2] = {&stepper->slots[2], &stepper->slots[3]};
         status = dep_iterate_multipliers(&stepper->mp, DEP_VELOCITY, new->lam, nc,

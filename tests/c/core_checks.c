@@ -7,6 +7,10 @@
  *   core_checks fixed N T [TOL]  N fixed steps to T without step control (tol 1e-14 unless
  *                                given): prints the final q, then qd
  *   core_checks fixed_implicit N T [TOL]  the same with the linearly implicit step
+ *   core_checks predictor N T TOL  N fixed steps to T with the predictor learning its miss and
+ *                                without: prints each step's first position error both ways,
+ *                                then the largest difference of the final states and the
+ *                                passes' limit (constraint_tol)
  *   core_checks project NQ NC    reads M (NQ x NQ), J (NC x NQ) and qd (NQ) from stdin, prints
  *                                the plastic-impact projection of qd onto J qd+ = 0
  *   core_checks interpolant N    reads t_prior t0 t1, then (q, qd, qdd) at t0 and t1 and (qd,
@@ -105,46 +109,96 @@ static int iteration(double h)
     return 0;
 }
 
-/* n fixed steps to t_end at tol; implicit: with the linearly implicit step and its quadratic
-   profile (the model's T is then whatever stiff forces it has, none for a rigid one), which
-   keeps K, D and W over up to DEP_JACOBIAN_AGE steps of the same size. */
-static int fixed(int n, double t_end, double tol, int implicit)
+/* n fixed steps to t_end at tol, the predictor learning its miss as a run's does (learn) or
+   not; implicit: with the linearly implicit step and its quadratic profile (the model's T is
+   then whatever stiff forces it has, none for a rigid one), which keeps K, D and W over up to
+   DEP_JACOBIAN_AGE steps of the same size. first (n, or NULL): each step's first position
+   error, that of the predicted lambda_{i+1}. Leaves the final state in x. */
+static int steps(parts *x, int n, double t_end, double tol, int implicit, int learn,
+                 double *first)
 {
-    parts x;
     dep_failure failure;
     int nq = depsim_model.nq, nodes = implicit ? 2 : DEP_PROFILE_NODES;
-    if (start(&x, tol) != 0) {
+    if (start(x, tol) != 0) {
         return 1;
     }
     if (implicit) {
-        if (dep_stepper_prepare_implicit(&x.stepper, &x.arena) != DEP_OK) {
+        if (dep_stepper_prepare_implicit(&x->stepper, &x->arena) != DEP_OK) {
             return fail("implicit setup");
         }
-        x.stepper.implicit = 1;
+        x->stepper.implicit = 1;
     }
-    double h = t_end / n, *predicted = calloc((size_t)x.cs.capacity, sizeof *predicted);
+    double h = t_end / n, *predicted = calloc((size_t)x->cs.capacity, sizeof *predicted);
     if (predicted == NULL) {
         return fail("memory");
     }
     for (int k = 0; k < n; ++k) {
         dep_profile profile;
-        dep_profile_set(&profile, &x.history, h, nodes);
-        dep_history_predict(&x.history, &profile, predicted);
-        if (dep_step(&x.stepper, &x.state, &profile, predicted, NULL, NULL, &x.outcome,
+        dep_profile_set(&profile, &x->history, h, nodes);
+        dep_history_predict(&x->history, &profile, predicted);
+        if (dep_step(&x->stepper, &x->state, &profile, predicted, NULL, NULL, &x->outcome,
                      &failure)
             != DEP_OK) {
             fprintf(stderr, "core_checks: step %d, %s pass: %s\n", k,
                     dep_stage_names[failure.stage], failure.reason);
+            free(predicted);
             return 1;
         }
-        dep_state_copy(&x.state, &x.outcome.state, nq, x.cs.nc, x.system.nd);
-        dep_history_add(&x.history, x.state.t, x.state.lam);
+        if (first != NULL) {
+            first[k] = x->outcome.reports[0].errors[0];
+        }
+        dep_state_copy(&x->state, &x->outcome.state, nq, x->cs.nc, x->system.nd);
+        if (learn) {
+            dep_history_learn(&x->history, h, predicted, x->stepper.lam_first);
+        }
+        dep_history_add(&x->history, x->state.t, x->state.lam);
+    }
+    free(predicted);
+    return 0;
+}
+
+static int fixed(int n, double t_end, double tol, int implicit)
+{
+    parts x;
+    int nq = depsim_model.nq;
+    if (steps(&x, n, t_end, tol, implicit, 1, NULL) != 0) {
+        return 1;
     }
     for (int j = 0; j < 2 * nq; ++j) {
         printf("%.17g%s", j < nq ? x.state.q[j] : x.state.qd[j - nq], j + 1 < 2 * nq ? " " : "\n");
     }
-    free(predicted);
     dep_arena_free(&x.arena);
+    return 0;
+}
+
+/* n fixed steps to t_end at tol, with the predictor learning its miss and without: prints each
+   step's first position error (that of the predicted lambda_{i+1}) both ways, a line a step,
+   then the largest difference of the final states and the passes' limit. */
+static int predictor(int n, double t_end, double tol)
+{
+    parts learned, plain;
+    int nq = depsim_model.nq;
+    double *first = calloc(2 * (size_t)n, sizeof *first);
+    if (first == NULL) {
+        return fail("memory");
+    }
+    if (steps(&learned, n, t_end, tol, 0, 1, first) != 0
+        || steps(&plain, n, t_end, tol, 0, 0, first + n) != 0) {
+        free(first);
+        return 1;
+    }
+    for (int k = 0; k < n; ++k) {
+        printf("%.17g %.17g\n", first[k], first[n + k]);
+    }
+    double most = 0.0;
+    for (int j = 0; j < nq; ++j) {
+        most = fmax(most, fabs(learned.state.q[j] - plain.state.q[j]));
+        most = fmax(most, fabs(learned.state.qd[j] - plain.state.qd[j]));
+    }
+    printf("%.17g %.17g\n", most, learned.stepper.constraint_tol);
+    free(first);
+    dep_arena_free(&learned.arena);
+    dep_arena_free(&plain.arena);
     return 0;
 }
 
@@ -316,6 +370,9 @@ int main(int argc, char **argv)
     if ((argc == 4 || argc == 5) && strcmp(argv[1], "fixed_implicit") == 0) {
         return fixed(atoi(argv[2]), atof(argv[3]), argc == 5 ? atof(argv[4]) : 1e-14, 1);
     }
+    if (argc == 5 && strcmp(argv[1], "predictor") == 0) {
+        return predictor(atoi(argv[2]), atof(argv[3]), atof(argv[4]));
+    }
     if (argc == 4 && strcmp(argv[1], "project") == 0) {
         return project(atoi(argv[2]), atoi(argv[3]));
     }
@@ -323,5 +380,5 @@ int main(int argc, char **argv)
         return interpolant(atoi(argv[2]));
     }
     return fail("usage: core_checks iteration H | fixed N T [TOL] | fixed_implicit N T [TOL] | "
-                "project NQ NC | interpolant N | rows T");
+                "predictor N T TOL | project NQ NC | interpolant N | rows T");
 }
