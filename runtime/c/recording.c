@@ -23,6 +23,25 @@ double dep_max_output_times(const dep_system *system)
     return fmin(DEP_MAX_OUTPUT_TIMES, floor(DEP_MAX_OUTPUT_BYTES / row_bytes(system)));
 }
 
+/* Room for `capacity` recorded multipliers (their values and row-name ids), those kept so far
+   copied. */
+static int grow_multipliers(dep_recorder *rec, int capacity)
+{
+    int *ids = dep_bytes(rec->arena, (size_t)capacity * sizeof *ids);
+    double *values = dep_doubles(rec->arena, (size_t)capacity);
+    if (ids == NULL || values == NULL) {
+        return DEP_MEMORY_ERROR;
+    }
+    if (rec->lam_count) {
+        memcpy(ids, rec->lam_ids, (size_t)rec->lam_count * sizeof *ids);
+        memcpy(values, rec->lam_values, (size_t)rec->lam_count * sizeof *values);
+    }
+    rec->lam_ids = ids;
+    rec->lam_values = values;
+    rec->lam_capacity = capacity;
+    return DEP_OK;
+}
+
 /* 0, dt_out, 2 dt_out, ... up to t_end, with t_end itself always last (s). */
 static int output_times(double t_end, double dt_out, double limit, double **times,
                         dep_arena *arena)
@@ -63,16 +82,21 @@ int dep_recorder_init(dep_recorder *rec, const dep_system *system, const dep_set
     rec->n_times = -n;
     size_t rows = (size_t)(rec->capacity = rec->n_times + 1), nq = (size_t)m->nq;
     rec->t = dep_doubles(arena, rows);
-    rec->q = dep_doubles(arena, rows * nq);
-    rec->qd = dep_doubles(arena, rows * nq);
-    rec->hinge_angles = dep_doubles(arena, rows * (size_t)m->nh);
-    rec->hinge_rates = dep_doubles(arena, rows * (size_t)m->nh);
     rec->outputs = dep_doubles(arena, rows * (size_t)m->nout);
-    rec->residuals = dep_doubles(arena, rows * 3);
-    rec->energy = dep_doubles(arena, rows * (size_t)system->ne);
     rec->work = dep_doubles(arena, rows * (size_t)system->nd);
     rec->torque = dep_doubles(arena, rows * (size_t)m->nh);
     rec->lam_start = dep_bytes(arena, (rows + 1) * sizeof *rec->lam_start);
+    if (!rec->outputs_only) { /* (the columns the outputs' rows leave nought: not touched) */
+        rec->q = dep_doubles(arena, rows * nq);
+        rec->qd = dep_doubles(arena, rows * nq);
+        rec->hinge_angles = dep_doubles(arena, rows * (size_t)m->nh);
+        rec->hinge_rates = dep_doubles(arena, rows * (size_t)m->nh);
+        rec->residuals = dep_doubles(arena, rows * 3);
+        rec->energy = dep_doubles(arena, rows * (size_t)system->ne);
+    }
+    if (grow_multipliers(rec, (int)(rows * (size_t)m->nc)) != DEP_OK) {
+        return DEP_MEMORY_ERROR; /* room for the model's rows at every output time */
+    }
     rec->f = dep_doubles(arena, nq);
     rec->qdd = dep_doubles(arena, nq);
     rec->J = dep_doubles(arena, DEP_JACOBIAN_SIZE(m));
@@ -131,20 +155,9 @@ static int name_index(dep_recorder *rec, const char *name, int hint)
 
 static int keep_multipliers(dep_recorder *rec, const double *lam, const dep_constraints *cs)
 {
-    if (rec->lam_count + cs->nc > rec->lam_capacity) {
-        int capacity = 2 * (rec->lam_count + cs->nc) + 64;
-        int *ids = dep_bytes(rec->arena, (size_t)capacity * sizeof *ids);
-        double *values = dep_doubles(rec->arena, (size_t)capacity);
-        if (ids == NULL || values == NULL) {
-            return DEP_MEMORY_ERROR;
-        }
-        if (rec->lam_count) {
-            memcpy(ids, rec->lam_ids, (size_t)rec->lam_count * sizeof *ids);
-            memcpy(values, rec->lam_values, (size_t)rec->lam_count * sizeof *values);
-        }
-        rec->lam_ids = ids;
-        rec->lam_values = values;
-        rec->lam_capacity = capacity;
+    if (rec->lam_count + cs->nc > rec->lam_capacity
+        && grow_multipliers(rec, 2 * (rec->lam_count + cs->nc) + 64) != DEP_OK) {
+        return DEP_MEMORY_ERROR;
     }
     for (int i = 0; i < cs->nc; ++i) {
         int id = name_index(rec, cs->row_names[i], i);
