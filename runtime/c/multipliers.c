@@ -538,9 +538,9 @@ static void schur_for(dep_multipliers *mp, const double *J, long long id, int nc
 static int pcg(dep_multipliers *mp, const double *J, int n, const double *b,
                long long *iterations);
 
-/* x = S^-1 b (into mp->x): by the factor when there is one, else conjugate gradients;
-   1 when solved. */
-static int solve_schur(dep_multipliers *mp, const double *J, int n, const double *b,
+/* x = S^-1 b (x may be b): by the factor when there is one, into x as it goes (a copy read
+   back at once stalls: dep_envelope_solve), else conjugate gradients; 1 when solved. */
+static int solve_schur(dep_multipliers *mp, const double *J, int n, const double *b, double *x,
                        long long *iterations)
 {
     if (mp->schur_factored) {
@@ -550,16 +550,20 @@ static int solve_schur(dep_multipliers *mp, const double *J, int n, const double
             }
             dep_envelope_solve(&mp->envelope, mp->permuted_in, mp->permuted_in);
             for (int a = 0; a < n; ++a) {
-                mp->x[a] = mp->permuted_in[mp->rank[a]];
+                x[a] = mp->permuted_in[mp->rank[a]];
             }
         } else if (mp->schur_envelope) {
-            dep_envelope_solve(&mp->envelope, b, mp->x);
+            dep_envelope_solve(&mp->envelope, b, x);
         } else {
-            dep_cholesky_solve(mp->L, n, b, mp->x);
+            dep_cholesky_solve(mp->L, n, b, x);
         }
         return 1;
     }
-    return pcg(mp, J, n, b, iterations);
+    int solved = pcg(mp, J, n, b, iterations);
+    if (x != mp->x) {
+        memcpy(x, mp->x, (size_t)n * sizeof *x);
+    }
+    return solved;
 }
 
 /* x = S^-1 b for the rows J (nc x nq) with identity jacobian_id; 1 when solved. */
@@ -568,9 +572,7 @@ int dep_schur_solve(dep_multipliers *mp, const double *J, long long jacobian_id,
 {
     long long iterations = 0;
     schur_for(mp, J, jacobian_id, nc, SCHUR_REUSE);
-    int solved = solve_schur(mp, J, nc, b, &iterations);
-    memcpy(x, mp->x, (size_t)nc * sizeof *x);
-    return solved;
+    return solve_schur(mp, J, nc, b, x, &iterations);
 }
 
 static void schur_apply(dep_multipliers *mp, const double *J, int nc, const double *x,
@@ -701,7 +703,7 @@ int dep_iterate_multipliers(dep_multipliers *mp, int stage, double *lam, int nc,
         /* a factor of a nearby Jacobian while its update still ends within the limit */
         schur_for(mp, current->J, current->jacobian_id, nc,
                   fmin(SCHUR_REUSE, REUSE_MARGIN * limit / error));
-        if (!solve_schur(mp, current->J, nc, current->v, &report->cg_iterations)) {
+        if (!solve_schur(mp, current->J, nc, current->v, mp->x, &report->cg_iterations)) {
             return fail(stage, current, nc, "the multiplier system S = Phi_q M^-1 Phi_q^T is "
                         "singular or inconsistent here (conjugate gradients did not converge)",
                         failure);

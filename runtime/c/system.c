@@ -176,17 +176,15 @@ int dep_envelope_factor(dep_envelope *e)
     return 1;
 }
 
+/* One right side: L y = b by rows (a dot product each), L^T x = y by columns. b is read as
+   the rows go, not copied into x first: a copy's wide stores, read back at once a number at a
+   time, cannot be forwarded to the loads, and the solve (INTELSAT V's 8 rows) took twice as
+   long. */
 void dep_envelope_solve(const dep_envelope *e, const double *b, double *x)
-{
-    dep_envelope_solve_block(e, 1, b, x);
-}
-
-/* One right side: L y = b by rows (a dot product each), L^T x = y by columns. */
-static void solve_one(const dep_envelope *e, double *x)
 {
     for (int i = 0; i < e->n; ++i) {
         const double *row = &DEP_ENVELOPE_AT(e, e->L, i, 0);
-        double sum = x[i];
+        double sum = b[i];
         for (int k = e->first[i]; k < i; ++k) {
             sum -= row[k] * x[k];
         }
@@ -209,12 +207,12 @@ static void solve_one(const dep_envelope *e, double *x)
 
 void dep_envelope_solve_block(const dep_envelope *e, int count, const double *b, double *x)
 {
+    if (count == 1) {
+        dep_envelope_solve(e, b, x);
+        return;
+    }
     if (x != b) {
         memcpy(x, b, (size_t)e->n * (size_t)count * sizeof *x);
-    }
-    if (count == 1) {
-        solve_one(e, x);
-        return;
     }
     for (int i = 0; i < e->n; ++i) { /* L y = b */
         const double *row = &DEP_ENVELOPE_AT(e, e->L, i, 0);
