@@ -45,8 +45,8 @@ def test_outputs_at_output_times_match_an_independent_solution(pendulum):
 
 def test_energy_drift_over_fifty_periods_is_proportional_to_tol(pendulum):
     """The energy is conserved up to the global error, which an order-5 method with error per
-    step control makes proportional to tol^(5/6): tens of tol after 50 periods (measured 20 and
-    31 tol), falling by about 10^(5/6) = 6.8 from tol 1e-9 to 1e-10 (measured 6.3)."""
+    step control makes proportional to tol^(5/6): tens of tol after 50 periods (measured 16 and
+    27 tol), falling by about 10^(5/6) = 6.8 from tol 1e-9 to 1e-10 (measured 6.0)."""
     p = np.array(pendulum.PARAMETER_DEFAULTS)
     T = pendulum_period(p)
     drift = {}
@@ -66,8 +66,9 @@ def test_loose_tolerances_keep_the_energy_within_a_few_tol(pendulum):
     again (docs/method.md, 2). What such a move misses of the rest of the force's answer has
     the same sign step after step, so it would add up where DOPRI's own errors largely
     cancel: allowed a tenth of a tolerance per step, the energy departed by 20 and 13 tol.
-    Measured 1.7 and 2.7 tol (with every such move integrated again, 0.9 and 3.5)."""
+    Measured 4.3 and 5.3 tol, a steady loss of about half a tol a second (2.2 and 2.9 before
+    the predictor learned its miss, docs/method.md, 3: it leaves more trials to linear moves)."""
     for tol in (1e-6, 1e-7):
         result = simulate(pendulum, t_end=10.0, dt_out=0.01, tol=tol)
         energy = result.energy.sum(axis=1)
-        assert np.max(np.abs(energy - energy[0])) < 6 * tol
+        assert np.max(np.abs(energy - energy[0])) < 8 * tol
