@@ -625,10 +625,20 @@ static void lam_column(dep_stepper *stepper, const double *J, const double *lam,
     dep_cs_transpose_times(stepper->constraints, J, stepper->rhs_lam, stepper->column);
 }
 
-/* The response to lambda_{i+1} changed by lam - from, Phi_q frozen at J. */
+/* The response to lambda_{i+1} changed by lam - from, Phi_q frozen at J: nought without a
+   change (a velocity pass's first measurement, at the position pass's lambda). */
 static void respond_to(dep_stepper *stepper, const double *J, const double *lam,
                        const double *from)
 {
+    int nc = stepper->constraints->nc, changed = 0;
+    for (int i = 0; i < nc; ++i) {
+        changed |= lam[i] != from[i];
+    }
+    if (!changed) {
+        memset(stepper->dq, 0, (size_t)stepper->nq * sizeof *stepper->dq);
+        memset(stepper->dqd, 0, (size_t)stepper->nq * sizeof *stepper->dqd);
+        return;
+    }
     lam_column(stepper, J, lam, from);
     respond(stepper, stepper->column);
 }
