@@ -1056,12 +1056,19 @@ static int friction_settled(dep_stepper *stepper, const double *q1, const double
     double *d = stepper->dtau, *rZ = stepper->friction_now, *response = stepper->dqd;
     dep_friction_law(system, q1, qd1, stepper->law); /* leaves the rates in system->rates */
     for (int i = 0; i < nh; ++i) {
-        const dep_hinge_mechanics *hinge = &system->hinges[i];
         r[i] = stepper->law[i] - stepper->friction_end[i];
-        slope[i] = hinge->has_friction ? -dep_friction_slope(hinge, system->rates[i]) : 0.0;
     }
-    if (round == 0) {
+    if (round == 0) { /* every hinge's damping decides which are coupled */
+        for (int i = 0; i < nh; ++i) {
+            const dep_hinge_mechanics *hinge = &system->hinges[i];
+            slope[i] = hinge->has_friction ? -dep_friction_slope(hinge, system->rates[i]) : 0.0;
+        }
         friction_mobility(stepper, q1, pos, slope);
+    } else { /* then only the coupled hinges' enters Newton's system */
+        for (int k = 0; k < stepper->n_free; ++k) {
+            int i = stepper->free_hinges[k];
+            slope[i] = -dep_friction_slope(&system->hinges[i], system->rates[i]);
+        }
     }
     nf = stepper->n_free;
     memcpy(rZ, r, (size_t)nh * sizeof *rZ);
