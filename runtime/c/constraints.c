@@ -85,18 +85,19 @@ void dep_cs_transpose_times(const dep_constraints *cs, const double *J, const do
     }
 }
 
-double dep_cs_product_scale(const dep_constraints *cs, const double *J, const double *x)
+double dep_cs_times_scale(const dep_constraints *cs, const double *J, const double *x,
+                          double *out)
 {
     double largest = 0.0;
     for (int i = 0; i < cs->nc; ++i) {
-        double sum = 0.0;
+        double sum = 0.0, size = 0.0;
         for (int k = cs->row_start[i]; k < cs->row_start[i + 1]; ++k) {
-            sum += fabs(J[k]) * fabs(x[cs->row_cols[k]]);
+            double term = J[k] * x[cs->row_cols[k]];
+            sum += term;
+            size += fabs(term);
         }
-        if (isnan(sum)) {
-            return sum;
-        }
-        largest = sum > largest ? sum : largest;
+        out[i] = sum;
+        largest = isnan(size) || size > largest ? size : largest; /* (NaN kept) */
     }
     return largest;
 }

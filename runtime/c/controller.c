@@ -158,6 +158,16 @@ void dep_profile_set(dep_profile *profile, const dep_history *history, double h,
     }
 }
 
+/* The profile `from` (set from a history with the same times as `history`) through
+   `history`'s values: the friction torques' profile of the step the multipliers' was set for. */
+void dep_profile_share(dep_profile *to, const dep_profile *from, const dep_history *history)
+{
+    *to = *from;
+    for (int j = 0; j < to->nodes; ++j) {
+        to->lam[j] = history->lam[history->count - to->nodes + j];
+    }
+}
+
 /* lambda held at `lam` over the step from t0 (the first step's trial). */
 void dep_profile_hold(dep_profile *profile, double t0, const double *lam)
 {
@@ -200,15 +210,16 @@ double dep_profile_end_weight(const dep_profile *profile, double t)
 
 /* The position pass's starting lambda_{i+1}: the end value for which the profile pushes the
    step end as the multipliers extrapolated from every accepted point would (for frozen
-   Phi_q): integral (1 - s) (profile(s) - extrapolation(s)) ds = 0; plus the miss of this
-   guess at the last accepted step (dep_history_learn), scaled by (h / its h)^4, when that
-   step's guess was made from as many points. The miss is the extrapolation's O(h^4) error
-   and DOPRI's own normal error over h^2: both smooth from step to step, so the last one
-   foretells the next (docs/method.md, 3). */
-void dep_history_predict(dep_history *history, const dep_profile *profile, double *out)
+   Phi_q): integral (1 - s) (profile(s) - extrapolation(s)) ds = 0, a sum of the accepted
+   values with these weights (history->count of them, to divide by profile->position). They
+   depend on the times alone: a history kept in step with this one (the friction torques')
+   shares them (dep_profile_share). */
+void dep_history_weights(const dep_history *history, const dep_profile *profile,
+                         double *weights)
 {
-    int n = history->count, nc = history->nc, nodes = profile->nodes;
-    double coefficients[DEP_HISTORY] = {0}, w[DEP_PROFILE_NODES + 1];
+    int n = history->count, nodes = profile->nodes;
+    double w[DEP_PROFILE_NODES + 1];
+    memset(weights, 0, (size_t)n * sizeof *weights);
     for (int g = 0; g < 3; ++g) {
         double s = NODES[g], at = profile->t0 + s * profile->h, weight = PLAIN[g] * (1.0 - s);
         for (int j = 0; j < n; ++j) { /* the extrapolation through every accepted point */
@@ -218,17 +229,28 @@ void dep_history_predict(dep_history *history, const dep_profile *profile, doubl
                     value *= (at - history->t[m]) / (history->t[j] - history->t[m]);
                 }
             }
-            coefficients[j] += weight * value;
+            weights[j] += weight * value;
         }
         basis(profile, s, w); /* less the profile's own accepted part */
         for (int j = 0; j < nodes; ++j) {
-            coefficients[n - nodes + j] -= weight * w[j];
+            weights[n - nodes + j] -= weight * w[j];
         }
     }
+}
+
+/* That end value by dep_history_weights' weights, plus the miss of this guess at the last
+   accepted step (dep_history_learn), scaled by (h / its h)^4, when that step's guess was made
+   from as many points. The miss is the extrapolation's O(h^4) error and DOPRI's own normal
+   error over h^2: both smooth from step to step, so the last one foretells the next
+   (docs/method.md, 3). */
+void dep_history_predict(dep_history *history, const dep_profile *profile,
+                         const double *weights, double *out)
+{
+    int n = history->count, nc = history->nc;
     for (int i = 0; i < nc; ++i) {
         double sum = 0.0;
         for (int j = 0; j < n; ++j) {
-            sum += coefficients[j] * history->lam[j][i];
+            sum += weights[j] * history->lam[j][i];
         }
         out[i] = sum / profile->position;
     }

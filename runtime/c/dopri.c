@@ -122,21 +122,23 @@ void dep_dense_points(const dep_rk_step *rk, int points, const double *times, in
     }
     for (int p = 0; p < points; ++p) { /* y0 + h sum_s b_s(x) K_s, b_s(x) = sum_c P_sc x^(c+1) */
         double x = (times[p] - rk->t0) / rk->h, weight[7];
-        for (int stage = 0; stage < 7; ++stage) {
+        const double *K[7];
+        int used = 0;
+        for (int stage = 0; stage < 7; ++stage) { /* the stages of non-zero weight */
             const double *c = P[stage];
-            weight[stage] = rk->h * x * (c[0] + x * (c[1] + x * (c[2] + x * c[3])));
+            double w = rk->h * x * (c[0] + x * (c[1] + x * (c[2] + x * c[3])));
+            if (w != 0.0) {
+                weight[used] = w;
+                K[used++] = rk->K + (size_t)stage * n + first;
+            }
         }
         double *row = out + (size_t)p * count;
-        for (int j = 0; j < count; ++j) {
-            row[j] = rk->y0[first + j];
-        }
-        for (int stage = 0; stage < 7; ++stage) { /* over the components: contiguous */
-            const double *K = rk->K + (size_t)stage * n + first;
-            if (weight[stage] != 0.0) {
-                for (int j = 0; j < count; ++j) {
-                    row[j] += weight[stage] * K[j];
-                }
+        for (int j = 0; j < count; ++j) { /* summed in stage order in a register (combine) */
+            double sum = rk->y0[first + j];
+            for (int s = 0; s < used; ++s) {
+                sum += weight[s] * K[s][j];
             }
+            row[j] = sum;
         }
     }
 }

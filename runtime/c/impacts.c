@@ -30,13 +30,13 @@ static void measure_acceleration(void *context, const double *lam, dep_measureme
     } else {
         dep_mass_solve(&w->system->mass, w->jt, out->x);
     }
-    dep_cs_times(w->cs, a->J, out->x, out->v);
+    double scale = dep_cs_times_scale(w->cs, a->J, out->x, out->v);
     for (int i = 0; i < nc; ++i) {
         out->v[i] = w->gamma[i] - out->v[i];
     }
     out->J = a->J;
     out->jacobian_id = a->jacobian_id;
-    out->scale = fmax(dep_max_abs(w->gamma, nc), dep_cs_product_scale(w->cs, a->J, out->x));
+    out->scale = fmax(dep_max_abs(w->gamma, nc), scale);
 }
 
 /* lambda (in: the guess) and qdd at (q, qd, t) from (1) and (2c), J = Phi_q there. */

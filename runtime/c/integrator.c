@@ -455,18 +455,21 @@ static int step_budget(dep_run *run, double h)
     return dep_solver_error(run->error, 1, s->t, "step size", NULL, NULL, 0, 0.0, what, hint);
 }
 
-/* A step of size h from run->state into outcome, the profiles through the histories. */
+/* A step of size h from run->state into outcome, the profiles through the histories (the
+   friction torques' kept at the multipliers' times: the same weights). */
 int dep_run_step(dep_run *run, double h, dep_outcome *outcome, dep_failure *failure)
 {
     dep_profile profile, friction;
+    double weights[DEP_HISTORY];
     dep_profile_set(&profile, &run->history, h, run->profile_nodes);
-    dep_history_predict(&run->history, &profile, run->predicted);
+    dep_history_weights(&run->history, &profile, weights);
+    dep_history_predict(&run->history, &profile, weights, run->predicted);
     if (run->system.n_friction == 0) {
         return dep_step(&run->stepper, &run->state, &profile, run->predicted, NULL, NULL,
                         outcome, failure);
     }
-    dep_profile_set(&friction, &run->friction, h, run->profile_nodes);
-    dep_history_predict(&run->friction, &friction, run->friction_predicted);
+    dep_profile_share(&friction, &profile, &run->friction);
+    dep_history_predict(&run->friction, &friction, weights, run->friction_predicted);
     return dep_step(&run->stepper, &run->state, &profile, run->predicted, &friction,
                     run->friction_predicted, outcome, failure);
 }

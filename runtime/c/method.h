@@ -52,11 +52,13 @@ void dep_cs_v_acc(dep_constraints *cs, const double *q, const double *qd, const 
                   double t, const double *J, double *out);
 void dep_cs_describe(const dep_constraints *cs, int row, char *joint_text, size_t size);
 /* Products with a Jacobian J of the active rows (dep_cs_jacobian), over its pattern only:
-   out = J x (nc), out = J^T y (nq), and max_i sum_j |J_ij x_j| (the round-off scale of J x). */
+   out = J x (nc), out = J^T y (nq); dep_cs_times_scale: out = J x, returning max_i sum_j
+   |J_ij x_j| (the round-off scale of J x; NaN when a product is). */
 void dep_cs_times(const dep_constraints *cs, const double *J, const double *x, double *out);
 void dep_cs_transpose_times(const dep_constraints *cs, const double *J, const double *y,
                             double *out);
-double dep_cs_product_scale(const dep_constraints *cs, const double *J, const double *x);
+double dep_cs_times_scale(const dep_constraints *cs, const double *J, const double *x,
+                          double *out);
 int dep_cs_remove(dep_constraints *cs, const char *name);
 int dep_cs_add(dep_constraints *cs, const dep_row *row, dep_error *error);
 int dep_cs_add_row(dep_constraints *cs, const dep_added_row *row, dep_error *error);
@@ -305,7 +307,11 @@ void dep_profile_hold(dep_profile *profile, double t0, const double *lam);
 void dep_profile_value(const dep_profile *profile, const double *lam_end, double t, int nc,
                        double *out);
 double dep_profile_end_weight(const dep_profile *profile, double t); /* l(u) of the end value */
-void dep_history_predict(dep_history *history, const dep_profile *profile, double *out);
+void dep_profile_share(dep_profile *to, const dep_profile *from, const dep_history *history);
+void dep_history_weights(const dep_history *history, const dep_profile *profile,
+                         double *weights);
+void dep_history_predict(dep_history *history, const dep_profile *profile,
+                         const double *weights, double *out);
 void dep_history_learn(dep_history *history, double h, const double *guess, const double *found);
 void dep_weights(const double *y0, const double *y1, int n, double tol, double *scale);
 double dep_rms(const double *x, const double *scale, int n);

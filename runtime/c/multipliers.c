@@ -762,13 +762,12 @@ static void measure_projection(void *context, const double *mu, dep_measurement 
     for (int j = 0; j < nq; ++j) {
         out->x[j] = pr->qd[j] - solved[j];
     }
-    times(pr->mp, pr->J, nc, out->x, out->v);
+    out->scale = dep_cs_times_scale(pr->mp->cs, pr->J, out->x, out->v);
     for (int a = 0; a < nc; ++a) {
         out->v[a] = -out->v[a] - pr->phi_t[a];
     }
     out->J = pr->J;
     out->jacobian_id = pr->jacobian_id;
-    out->scale = dep_cs_product_scale(pr->mp->cs, pr->J, out->x);
 }
 
 /* qd+ = qd - M^-1 J^T mu with J qd+ + phi_t = 0 by the iteration (6) with C = 1. */

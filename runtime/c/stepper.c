@@ -880,13 +880,12 @@ static void measure_velocity(void *context, const double *lam1, dep_measurement 
     for (int j = 0; j < nq; ++j) {
         out->x[j] = pos->rk.y1[nq + j] + stepper->dqd[j];
     }
-    dep_cs_times(stepper->constraints, pos->J, out->x, out->v);
+    out->scale = dep_cs_times_scale(stepper->constraints, pos->J, out->x, out->v);
     for (int i = 0; i < nc; ++i) {
         out->v[i] = -out->v[i] - stepper->phi_t1[i];
     }
     out->J = pos->J;
     out->jacobian_id = pos->jacobian_id;
-    out->scale = dep_cs_product_scale(stepper->constraints, pos->J, out->x);
 }
 
 /* The new state's work and the step's interpolant. */

@@ -134,8 +134,10 @@ static int steps(parts *x, int n, double t_end, double tol, int implicit, int le
     }
     for (int k = 0; k < n; ++k) {
         dep_profile profile;
+        double weights[DEP_HISTORY];
         dep_profile_set(&profile, &x->history, h, nodes);
-        dep_history_predict(&x->history, &profile, predicted);
+        dep_history_weights(&x->history, &profile, weights);
+        dep_history_predict(&x->history, &profile, weights, predicted);
         if (dep_step(&x->stepper, &x->state, &profile, predicted, NULL, NULL, &x->outcome,
                      &failure)
             != DEP_OK) {
