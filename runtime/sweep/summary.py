@@ -8,7 +8,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-__all__ = ["metric_names", "varied_parameters", "drivers", "metric_table", "summarize"]
+__all__ = ["metric_names", "varied_parameters", "ranks", "spearman", "drivers", "metric_table",
+           "summarize"]
 
 NON_METRICS = {"failed", "error", "wall_time", "parameter_values"}
 # Run statistics worth a line in the summary (all of them are in the Dataset).
@@ -29,32 +30,64 @@ def varied_parameters(ds) -> list[str]:
     return [n for n in names if n in ds.coords]
 
 
-def _spearman(x: np.ndarray, y: np.ndarray) -> float:
-    from scipy.stats import spearmanr
+def ranks(x: np.ndarray) -> np.ndarray:
+    """The ranks of x from 1, ties given their mean rank (scipy.stats.rankdata's "average";
+    summaries of thousands of runs rank each parameter once, without importing scipy.stats)."""
+    order = np.argsort(x, kind="mergesort")
+    inverse = np.empty(order.size, dtype=np.intp)
+    inverse[order] = np.arange(order.size)
+    ordered = x[order]
+    first = np.r_[True, ordered[1:] != ordered[:-1]]  # the start of each run of ties
+    group = np.cumsum(first)[inverse]
+    bounds = np.r_[np.flatnonzero(first), order.size]
+    return 0.5 * (bounds[group] + bounds[group - 1] + 1)
 
+
+def spearman(x: np.ndarray, y: np.ndarray, x_ranks: np.ndarray | None = None,
+             y_ranks: np.ndarray | None = None) -> float:
+    """Spearman's rank correlation of the pairs where both are finite (NaN for fewer than 3
+    pairs or a constant side): Pearson's correlation of the ranks. x_ranks, y_ranks: the
+    ranks, used when every pair is finite (each ranked once for a whole summary)."""
     keep = np.isfinite(x) & np.isfinite(y)
-    x, y = x[keep], y[keep]
-    if x.size < 3 or np.ptp(x) == 0 or np.ptp(y) == 0:
+    if keep.sum() < 3 or np.ptp(x[keep]) == 0 or np.ptp(y[keep]) == 0:
         return math.nan
-    return float(spearmanr(x, y).statistic)
+    every = keep.all()
+    rx = x_ranks if x_ranks is not None and every else ranks(x[keep])
+    ry = y_ranks if y_ranks is not None and every else ranks(y[keep])
+    rx, ry = rx - rx.mean(), ry - ry.mean()
+    return float(np.dot(rx, ry) / math.sqrt(np.dot(rx, rx) * np.dot(ry, ry)))
 
 
-def drivers(ds, metric: str, parameters: Sequence[str] | None = None) -> list[tuple[str, float]]:
-    """(parameter, Spearman rho) for every varied parameter, largest |rho| first; NaN-free."""
+def drivers(ds, metric: str, parameters: Sequence[str] | None = None,
+            parameter_ranks: dict[str, np.ndarray] | None = None) -> list[tuple[str, float]]:
+    """(parameter, Spearman rho) for every varied parameter, largest |rho| first; NaN-free.
+    parameter_ranks: each parameter's ranks over the successful runs (_parameter_ranks)."""
     ok = ~np.asarray(ds["failed"].values, dtype=bool)
     y = np.asarray(ds[metric].values, dtype=float)[ok]
+    y_ranks = ranks(y) if y.size and np.isfinite(y).all() else None
     out = []
     for name in parameters if parameters is not None else varied_parameters(ds):
-        rho = _spearman(np.asarray(ds[name].values, dtype=float)[ok], y)
+        x = np.asarray(ds[name].values, dtype=float)[ok]
+        rho = spearman(x, y, (parameter_ranks or {}).get(name), y_ranks)
         if not math.isnan(rho):
             out.append((name, rho))
     return sorted(out, key=lambda item: -abs(item[1]))
+
+
+def _parameter_ranks(ds, ok: np.ndarray, params: Sequence[str]) -> dict[str, np.ndarray]:
+    out = {}
+    for name in params:
+        x = np.asarray(ds[name].values, dtype=float)[ok]
+        if np.isfinite(x).all():
+            out[name] = ranks(x)
+    return out
 
 
 def metric_table(ds) -> list[dict]:
     """One row per metric: p5, p50, p95, mean, n (finite values), drivers."""
     ok = ~np.asarray(ds["failed"].values, dtype=bool)
     params = varied_parameters(ds)
+    parameter_ranks = _parameter_ranks(ds, ok, params)
     rows = []
     for name in metric_names(ds):
         values = np.asarray(ds[name].values, dtype=float)[ok]
@@ -66,7 +99,7 @@ def metric_table(ds) -> list[dict]:
             p5 = p50 = p95 = mean = math.nan
         rows.append({"metric": name, "p5": float(p5), "p50": float(p50), "p95": float(p95),
                      "mean": mean, "n": int(finite.size), "runs": int(ok.sum()),
-                     "drivers": drivers(ds, name, params)})
+                     "drivers": drivers(ds, name, params, parameter_ranks)})
     return rows
 
 

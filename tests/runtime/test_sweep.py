@@ -304,6 +304,31 @@ def test_summary_and_plot(module_path, tmp_path):
     assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10_000
 
 
+def test_rank_correlation_matches_scipy_with_ties_and_missing_values():
+    from scipy.stats import rankdata, spearmanr
+
+    from depsim.runtime.sweep.summary import ranks, spearman
+
+    rng = np.random.default_rng(3)
+    x = rng.normal(size=500)
+    y = np.round(2 * x + rng.normal(size=500), 1)  # many ties
+    y[[3, 40, 77]] = np.nan
+    x[[5, 99]] = np.inf
+    assert np.array_equal(ranks(y[np.isfinite(y)]), rankdata(y[np.isfinite(y)]))
+    keep = np.isfinite(x) & np.isfinite(y)
+    expected = spearmanr(x[keep], y[keep]).statistic
+    assert spearman(x, y) == pytest.approx(expected, rel=1e-12)
+    # ranks computed once serve every pairing where all pairs are finite
+    z = rng.permutation(np.repeat(np.arange(50.0), 10))
+    assert spearman(z, -z, ranks(z), ranks(-z)) == pytest.approx(-1.0, rel=1e-14)
+    w = z + rng.normal(size=z.size)
+    assert spearman(z, w, ranks(z), ranks(w)) == pytest.approx(spearmanr(z, w).statistic,
+                                                               rel=1e-12)
+    assert spearman(x, y, ranks(x)) == pytest.approx(expected, rel=1e-12)  # not all finite
+    assert math.isnan(spearman(np.ones(9), np.arange(9.0)))
+    assert math.isnan(spearman(np.arange(2.0), np.arange(2.0)))
+
+
 def test_progress_bar_only_on_a_terminal():
     quiet = io.StringIO()
     bar = ProgressBar(10, stream=quiet)
