@@ -12,7 +12,7 @@
 
 /* ---- memory ------------------------------------------------------------------------------ */
 
-void *dep_bytes(dep_arena *arena, size_t n)
+static void *allocate(dep_arena *arena, size_t n, int zeroed)
 {
     if (arena->count == arena->capacity) {
         int capacity = arena->capacity ? 2 * arena->capacity : 64;
@@ -24,13 +24,23 @@ void *dep_bytes(dep_arena *arena, size_t n)
         arena->blocks = blocks;
         arena->capacity = capacity;
     }
-    void *block = calloc(n ? n : 1, 1);
+    void *block = zeroed ? calloc(n ? n : 1, 1) : malloc(n ? n : 1);
     if (block == NULL) {
         arena->failed = 1;
         return NULL;
     }
     arena->blocks[arena->count++] = block;
     return block;
+}
+
+void *dep_bytes(dep_arena *arena, size_t n)
+{
+    return allocate(arena, n, 1);
+}
+
+void *dep_bytes_unset(dep_arena *arena, size_t n)
+{
+    return allocate(arena, n, 0);
 }
 
 double *dep_doubles(dep_arena *arena, size_t n)

@@ -48,10 +48,10 @@ int dep_settle_init(dep_mechanism *m, dep_arena *arena)
     x->records_capacity = 3 * x->queue_capacity;
     x->data_capacity = RECORD_DATA + (int)nh;
     x->records = dep_bytes(arena, (size_t)x->records_capacity * sizeof *x->records);
-    /* one block for every record's data: calloc maps a block this large untouched, so a run
-       pays only for the records it writes */
-    dep_datum *data = dep_bytes(arena, (size_t)x->records_capacity * (size_t)x->data_capacity
-                                       * sizeof *data);
+    /* one block for every record's data (2 MB for INTELSAT V), not zeroed: dep_datum_add sets
+       each datum it hands out, so a run pays only for the records it writes */
+    dep_datum *data = dep_bytes_unset(arena, (size_t)x->records_capacity
+                                                 * (size_t)x->data_capacity * sizeof *data);
     for (int r = 0; x->records != NULL && data != NULL && r < x->records_capacity; ++r) {
         x->records[r].data = data + (size_t)r * (size_t)x->data_capacity;
     }

@@ -20,7 +20,10 @@ typedef struct dep_arena { /* every allocation of a run, freed at once */
 } dep_arena;
 
 double *dep_doubles(dep_arena *arena, size_t n); /* zeroed; NULL (and arena->failed) on failure */
-void *dep_bytes(dep_arena *arena, size_t n);
+void *dep_bytes(dep_arena *arena, size_t n); /* zeroed */
+/* not zeroed: for a large block whose parts are set before they are read (calloc clears
+   memory that a long-lived process, a study's worker, has used before: megabytes a run) */
+void *dep_bytes_unset(dep_arena *arena, size_t n);
 void dep_arena_free(dep_arena *arena);
 
 void dep_error_clear(dep_error *error);
