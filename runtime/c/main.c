@@ -10,6 +10,12 @@
  * With -o the CSV goes to the file and a summary to stdout; without, the CSV goes to stdout.
  * Exit codes: 0 ok, 1 out of memory or an unwritable file, 2 usage error, 3 solver failure.
  */
+#if defined(__unix__) || defined(__APPLE__)
+#define _XOPEN_SOURCE 700 /* stat, lstat, realpath: what a path names */
+#include <limits.h>
+#include <sys/stat.h>
+#define HAVE_POSIX 1
+#endif
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -273,20 +279,64 @@ static int write_csv(const dep_result *r, FILE *file)
     return ferror(file) ? EXIT_FAILED : EXIT_OK;
 }
 
-/* Write next to `path`, then rename: a failure never leaves a half-written file. */
+/* What -o names, as `depsim run` treats it: a regular file or nothing yet is written next to
+   it and renamed over it (a failure never leaves a half-written file; a symbolic link is
+   followed, its target replaced and the link kept); a pipe or a device (/dev/null, a
+   terminal, /dev/fd/N) is written in place, never replaced; a folder is refused. */
+enum { PATH_FILE, PATH_IN_PLACE, PATH_FOLDER };
+
+static int path_kind(const char *path)
+{
+#ifdef HAVE_POSIX
+    struct stat st;
+    if (stat(path, &st) != 0 || S_ISREG(st.st_mode)) {
+        return PATH_FILE;
+    }
+    return S_ISDIR(st.st_mode) ? PATH_FOLDER : PATH_IN_PLACE;
+#else
+    (void)path;
+    return PATH_FILE;
+#endif
+}
+
 static int save_csv(const dep_result *r, const char *path)
 {
-    char partial[4096];
-    if (snprintf(partial, sizeof partial, "%s.partial", path) >= (int)sizeof partial) {
+    char partial[4096], target[4096];
+    int kind = path_kind(path), status;
+    if (kind == PATH_FOLDER) {
+        fprintf(stderr, "%s: error: cannot write '%s': it is a folder\n", program, path);
+        return EXIT_FAILED;
+    }
+    if (kind == PATH_IN_PLACE) {
+        FILE *file = fopen(path, "w");
+        status = file == NULL ? EXIT_FAILED : write_csv(r, file);
+        if (file != NULL && fclose(file) != 0) {
+            status = EXIT_FAILED;
+        }
+        if (status != EXIT_OK) {
+            fprintf(stderr, "%s: error: cannot write '%s'\n", program, path);
+        }
+        return status;
+    }
+    const char *to = path;
+#ifdef HAVE_POSIX
+    struct stat st;
+    char resolved[PATH_MAX];
+    if (lstat(path, &st) == 0 && S_ISLNK(st.st_mode) && realpath(path, resolved) != NULL) {
+        to = resolved; /* the link's target is replaced, the link kept */
+    }
+#endif
+    if (snprintf(target, sizeof target, "%s", to) >= (int)sizeof target
+        || snprintf(partial, sizeof partial, "%s.partial", to) >= (int)sizeof partial) {
         fprintf(stderr, "%s: error: output path too long\n", program);
         return EXIT_FAILED;
     }
     FILE *file = fopen(partial, "w");
-    int status = file == NULL ? EXIT_FAILED : write_csv(r, file);
+    status = file == NULL ? EXIT_FAILED : write_csv(r, file);
     if (file != NULL && fclose(file) != 0) {
         status = EXIT_FAILED;
     }
-    if (status == EXIT_OK && rename(partial, path) != 0) {
+    if (status == EXIT_OK && rename(partial, target) != 0) {
         status = EXIT_FAILED;
     }
     if (status != EXIT_OK) {

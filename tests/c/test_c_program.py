@@ -193,6 +193,34 @@ def test_program_writes_csv_to_stdout(made):
     assert len(run.stdout.splitlines()) == 4
 
 
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs POSIX pipes and links")
+def test_program_writes_pipes_in_place_follows_links_and_refuses_folders(made, tmp_path):
+    """-o as `depsim run` treats it: a pipe (like /dev/null, a device) is written in place and
+    never replaced (a rename over /dev/null, as root, would replace the device with a file);
+    a symbolic link keeps pointing at its target, whose content is replaced; a folder is
+    refused with nothing written."""
+    built, folder, program = made
+    arguments = [str(program), "--t-end", "0.01", "--dt-out", "0.005", "-o"]
+    pipe = tmp_path / "pipe"
+    os.mkfifo(pipe)
+    reader = subprocess.Popen(["cat", str(pipe)], stdout=subprocess.PIPE)
+    run = subprocess.run([*arguments, str(pipe)], capture_output=True, text=True, timeout=60)
+    read = reader.communicate(timeout=60)[0].decode()
+    assert run.returncode == 0, run.stderr
+    assert read.splitlines()[0] == "t,crank_angle,piston_x,rod_angle"
+    assert len(read.splitlines()) == 4 and pipe.is_fifo()
+    target = tmp_path / "target.csv"
+    target.write_text("old\n")
+    link = tmp_path / "link.csv"
+    link.symlink_to(target)
+    run = subprocess.run([*arguments, str(link)], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    assert link.is_symlink() and target.read_text() == read
+    run = subprocess.run([*arguments, str(tmp_path)], capture_output=True, text=True)
+    assert run.returncode == 1 and "it is a folder" in run.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["link.csv", "pipe", "target.csv"]
+
+
 @pytest.mark.parametrize("arguments, message", [
     (["--set", "rr=0.1"], "unknown parameter 'rr'; did you mean 'r'?"),
     (["--set", "nonsense=1"], "unknown parameter 'nonsense'"),
