@@ -163,8 +163,8 @@ int dep_envelope_factor(dep_envelope *e)
             for (int k = 0; k < j - from; ++k) {
                 sum -= Li[k] * Lj[k];
             }
-            if (j < i) {
-                DEP_ENVELOPE_AT(e, e->L, i, j) = sum / DEP_ENVELOPE_AT(e, e->L, j, j);
+            if (j < i) { /* (times the pivot's inverse: no division's latency on the row) */
+                DEP_ENVELOPE_AT(e, e->L, i, j) = sum * e->inverse[j];
             } else if (!(sum > 1e-12 * largest)) {
                 return 0;
             } else {
