@@ -8,8 +8,10 @@ The hand-written solver (tests/references/intelsat_hand.c, also the test suite's
 Dormand-Prince 5(4) and the same forces, latches included: the minimal-coordinate baseline.
 Both write theta1..4 every 0.05 s; the error is the largest difference from a converged
 reference (the hand solver at tol 1e-13, which agrees with itself at 1e-12 to ~1e-11 rad).
-Times are medians of whole processes, run interleaved. The study is `depsim sweep` with seven
-spread parameters (frictions, preloads, cable stiffness), timed as a whole command.
+Times are medians of whole processes, run interleaved; a second pair, also interleaved, writes
+no rows (the hand solver without -o, depsim with --dt-out 70: its end alone), the solvers'
+own cost with the process start. The study is `depsim sweep` with seven spread parameters
+(frictions, preloads, cable stiffness), timed as a whole command.
 """
 
 from __future__ import annotations
@@ -44,17 +46,20 @@ def build(folder: Path) -> tuple[Path, Path]:
     return hand, folder / "depsim" / "intelsat5"
 
 
-def hand_run(hand: Path, tol: float, out: Path) -> dict:
-    done = subprocess.run([str(hand), "--t-end", "70", "--tol", repr(tol), "-o", str(out)],
+def hand_run(hand: Path, tol: float, out: Path | None) -> dict:
+    """One run; out None: no CSV written."""
+    written = ["-o", str(out)] if out is not None else []
+    done = subprocess.run([str(hand), "--t-end", "70", "--tol", repr(tol), *written],
                           capture_output=True, text=True, check=True)
     steps, rejected, evaluations = re.search(r"steps (\d+) rejected (\d+) evaluations (\d+)",
                                              done.stderr).groups()
     return {"steps": int(steps), "rejected": int(rejected), "evaluations": int(evaluations)}
 
 
-def depsim_run(program: Path, tol: float, out: Path) -> dict:
-    done = subprocess.run([str(program), "--t-end", "70", "--tol", repr(tol), "--dt-out", "0.05",
-                           "-o", str(out)], capture_output=True, text=True, check=True)
+def depsim_run(program: Path, tol: float, out: Path, dt_out: float = 0.05) -> dict:
+    done = subprocess.run([str(program), "--t-end", "70", "--tol", repr(tol), "--dt-out",
+                           repr(dt_out), "-o", str(out)], capture_output=True, text=True,
+                          check=True)
     found = re.search(r"steps: (\d+) accepted, (\d+) rejected, (\d+) retried; (\d+) force",
                       done.stdout).groups()
     return {"steps": int(found[0]), "rejected": int(found[1]) + int(found[2]),
@@ -78,10 +83,13 @@ def compare(hand: Path, program: Path, tol: float, repeat: int, folder: Path,
             reference: np.ndarray) -> None:
     hand_out, depsim_out = folder / "hand.csv", folder / "depsim.csv"
     hand_info, depsim_info = hand_run(hand, tol, hand_out), depsim_run(program, tol, depsim_out)
-    hand_times, depsim_times = [], []
+    hand_times, depsim_times, hand_bare, depsim_bare = [], [], [], []
+    bare_out = folder / "depsim_end.csv"
     for _ in range(repeat):  # interleaved, whole processes
         hand_times.append(timed(lambda: hand_run(hand, tol, hand_out)))
         depsim_times.append(timed(lambda: depsim_run(program, tol, depsim_out)))
+        hand_bare.append(timed(lambda: hand_run(hand, tol, None)))
+        depsim_bare.append(timed(lambda: depsim_run(program, tol, bare_out, dt_out=70)))
     rows = [("hand, 4 joint coordinates", hand_info, hand_times, error(hand_out, reference)),
             ("depsim standalone C", depsim_info, depsim_times, error(depsim_out, reference))]
     print(f"\ntol {tol:g}, 0-70 s, medians of {repeat} whole processes")
@@ -91,9 +99,13 @@ def compare(hand: Path, program: Path, tol: float, repeat: int, folder: Path,
         print(f"{name:<28} {err:>10.2e} {1000 * statistics.median(times):>9.2f} "
               f"{info['steps']:>7} {info['rejected']:>12} {info['evaluations']:>8}")
     ratio = statistics.median(depsim_times) / statistics.median(hand_times)
-    print(f"depsim / hand: {ratio:.1f}x the time, "
+    print(f"depsim / hand: {ratio:.2f}x the time, "
           f"{depsim_info['steps'] / hand_info['steps']:.1f}x the steps, "
           f"{depsim_info['evaluations'] / hand_info['evaluations']:.1f}x the force evaluations")
+    bare = statistics.median(depsim_bare) / statistics.median(hand_bare)
+    print(f"without writing the rows (the hand solver without -o, depsim with --dt-out 70): "
+          f"{1000 * statistics.median(hand_bare):.2f} ms and "
+          f"{1000 * statistics.median(depsim_bare):.2f} ms, {bare:.2f}x")
 
 
 def study(runs: int, folder: Path) -> None:
