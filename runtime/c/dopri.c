@@ -44,17 +44,42 @@ int dep_rk_init(dep_rk_step *rk, int n, dep_arena *arena)
     return arena->failed ? DEP_MEMORY_ERROR : DEP_OK;
 }
 
-/* sum_k coefficients[k] K[k] (stages k < count) into out (n): each component summed in stage
-   order, as numpy's `coefficients @ K`, in a register (a running sum through out would be
-   stored and loaded again for every stage). */
-static void combine(const double *coefficients, int count, const double *K, int n, double *out)
+/* out (n) = y0 + h sum_k coefficients[k] K[k] over the stages k < count (h times the sum
+   where y0 is NULL): each component's sum in stage order, as numpy's `coefficients @ K`, in a
+   register (a running sum through out would be stored and loaded again for every stage),
+   four components at a time so that their independent sums share each coefficient's load and
+   fill the processor's pipelines (one component's sum is a chain of dependent additions). */
+static void combine(const double *coefficients, int count, const double *K, int n,
+                    const double *y0, double h, double *out)
 {
-    for (int j = 0; j < n; ++j) {
+    int j = 0;
+    for (; j + 4 <= n; j += 4) {
+        double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
+        for (int k = 0; k < count; ++k) {
+            const double c = coefficients[k], *row = K + (size_t)k * (size_t)n + j;
+            s0 += c * row[0];
+            s1 += c * row[1];
+            s2 += c * row[2];
+            s3 += c * row[3];
+        }
+        if (y0 != NULL) {
+            out[j] = y0[j] + h * s0;
+            out[j + 1] = y0[j + 1] + h * s1;
+            out[j + 2] = y0[j + 2] + h * s2;
+            out[j + 3] = y0[j + 3] + h * s3;
+        } else {
+            out[j] = h * s0;
+            out[j + 1] = h * s1;
+            out[j + 2] = h * s2;
+            out[j + 3] = h * s3;
+        }
+    }
+    for (; j < n; ++j) {
         double sum = 0.0;
         for (int k = 0; k < count; ++k) {
             sum += coefficients[k] * K[(size_t)k * (size_t)n + j];
         }
-        out[j] = sum;
+        out[j] = y0 != NULL ? y0[j] + h * sum : h * sum;
     }
 }
 
@@ -72,16 +97,10 @@ void dep_dopri_step(dep_rk_step *rk, dep_rhs_function rhs, void *context, double
     rk->y0 = y0;
     memcpy(K, k1, (size_t)n * sizeof *K);
     for (int s = 1; s < 6; ++s) {
-        combine(A[s], s, K, n, scratch);
-        for (int j = 0; j < n; ++j) {
-            scratch[j] = y0[j] + h * scratch[j];
-        }
+        combine(A[s], s, K, n, y0, h, scratch);
         rhs(context, t0 + C[s] * h, scratch, K + (size_t)s * (size_t)n);
     }
-    combine(B, 6, K, n, rk->y1);
-    for (int j = 0; j < n; ++j) {
-        rk->y1[j] = y0[j] + h * rk->y1[j];
-    }
+    combine(B, 6, K, n, y0, h, rk->y1);
     rhs(context, t0 + h, rk->y1, K + 6 * (size_t)n);
     double num = 0.0, den = 0.0; /* scratch: the sixth stage's argument, also at t0 + h */
     for (int j = 0; j < n; ++j) {
@@ -91,10 +110,7 @@ void dep_dopri_step(dep_rk_step *rk, dep_rhs_function rhs, void *context, double
         den += rk->mode[j] * rk->mode[j];
     }
     rk->stiffness = den > 0.0 ? h * sqrt(num / den) : 0.0;
-    combine(E, 7, K, n, rk->error);
-    for (int j = 0; j < n; ++j) {
-        rk->error[j] = h * rk->error[j];
-    }
+    combine(E, 7, K, n, NULL, h, rk->error);
 }
 
 /* Components first..first+count-1 of the continuous extension y(t) of the step: DOPRI's
@@ -133,8 +149,24 @@ void dep_dense_points(const dep_rk_step *rk, int points, const double *times, in
             }
         }
         double *row = out + (size_t)p * count;
-        for (int j = 0; j < count; ++j) { /* summed in stage order in a register (combine) */
-            double sum = rk->y0[first + j];
+        const double *y0 = rk->y0 + first;
+        int j = 0;
+        for (; j + 4 <= count; j += 4) { /* in stage order in registers, as combine */
+            double s0 = y0[j], s1 = y0[j + 1], s2 = y0[j + 2], s3 = y0[j + 3];
+            for (int s = 0; s < used; ++s) {
+                const double w = weight[s], *k = K[s] + j;
+                s0 += w * k[0];
+                s1 += w * k[1];
+                s2 += w * k[2];
+                s3 += w * k[3];
+            }
+            row[j] = s0;
+            row[j + 1] = s1;
+            row[j + 2] = s2;
+            row[j + 3] = s3;
+        }
+        for (; j < count; ++j) {
+            double sum = y0[j];
             for (int s = 0; s < used; ++s) {
                 sum += weight[s] * K[s][j];
             }
