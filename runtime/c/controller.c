@@ -192,7 +192,23 @@ void dep_profile_value(const dep_profile *profile, const double *lam_end, double
     double w[DEP_PROFILE_NODES + 1];
     int n = profile->nodes;
     basis(profile, (t - profile->t0) / profile->h, w);
-    for (int i = 0; i < nc; ++i) {
+    int i = 0;
+    for (; i + 4 <= nc; i += 4) { /* four rows' sums at a time, each in node order */
+        double s0 = w[n] * lam_end[i], s1 = w[n] * lam_end[i + 1], s2 = w[n] * lam_end[i + 2],
+               s3 = w[n] * lam_end[i + 3];
+        for (int j = 0; j < n; ++j) {
+            const double *lam = profile->lam[j] + i;
+            s0 += w[j] * lam[0];
+            s1 += w[j] * lam[1];
+            s2 += w[j] * lam[2];
+            s3 += w[j] * lam[3];
+        }
+        out[i] = s0;
+        out[i + 1] = s1;
+        out[i + 2] = s2;
+        out[i + 3] = s3;
+    }
+    for (; i < nc; ++i) {
         double sum = w[n] * lam_end[i];
         for (int j = 0; j < n; ++j) {
             sum += w[j] * profile->lam[j][i];
