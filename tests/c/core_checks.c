@@ -17,6 +17,9 @@
  *                                qdd) at t_prior for one coordinate, then N times in [t0, t1];
  *                                prints q, qd on the step interpolant at each time, with the
  *                                prior point and without it
+ *   core_checks law F S          reads rates (rad/s) from stdin; prints the regularised
+ *                                Coulomb law's torque and slope at each, for a sliding hinge
+ *                                of friction F (N m) and slip rate S (rad/s)
  *   core_checks rows T           the model to T with every row column (DEP_ROWS_ALL) and with
  *                                the outputs' alone (DEP_ROWS_OUTPUTS): prints the largest
  *                                difference of the columns both keep, then the largest value
@@ -358,6 +361,22 @@ static int rows(double t_end)
     return 0;
 }
 
+static int law(double friction, double slip_rate)
+{
+    dep_hinge_mechanics h;
+    memset(&h, 0, sizeof h);
+    h.has_friction = 1;
+    h.kinetic = friction;
+    h.slip_rate = slip_rate;
+    h.latch_state = DEP_OPEN;
+    h.stop = DEP_STOP_NONE;
+    double rate;
+    while (scanf("%lf", &rate) == 1) {
+        printf("%.17g %.17g\n", dep_friction_torque(&h, rate), dep_friction_slope(&h, rate));
+    }
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
     if (argc == 3 && strcmp(argv[1], "rows") == 0) {
@@ -378,9 +397,12 @@ int main(int argc, char **argv)
     if (argc == 4 && strcmp(argv[1], "project") == 0) {
         return project(atoi(argv[2]), atoi(argv[3]));
     }
+    if (argc == 4 && strcmp(argv[1], "law") == 0) {
+        return law(atof(argv[2]), atof(argv[3]));
+    }
     if (argc == 3 && strcmp(argv[1], "interpolant") == 0) {
         return interpolant(atoi(argv[2]));
     }
     return fail("usage: core_checks iteration H | fixed N T [TOL] | fixed_implicit N T [TOL] | "
-                "predictor N T TOL | project NQ NC | interpolant N | rows T");
+                "predictor N T TOL | project NQ NC | law F S | interpolant N | rows T");
 }

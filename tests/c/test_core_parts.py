@@ -194,6 +194,37 @@ def test_step_interpolant_is_exact_for_quintics_with_the_prior_point(checks):
     assert np.allclose(out[[0, -1], 3], rate(times[[0, -1]]), rtol=0, atol=1e-13)
 
 
+def test_friction_law_is_tanh_to_round_off_and_its_slope_its_derivative(checks):
+    """The regularised Coulomb law -F tanh(rate / S) (computed as 1 - 2 / (exp(2 |u|) + 1) with
+    u's sign) within a few units of round-off of F against numpy's tanh, odd, bounded by F,
+    from zero through the slip band to rates far outside it; its slope (Newton's for the
+    friction torques) against a central difference of the torques themselves."""
+    friction, slip = 0.68, 1e-3
+    rng = np.random.default_rng(11)
+    u = np.concatenate([[0.0, 5e-324, 1e-300, 1e-17, 1e-9, 0.5, 1.0, 2.0, 18.0, 19.5, 400.0,
+                         1e300], rng.normal(size=200), rng.uniform(-25, 25, 200)])
+    rates = np.concatenate([u, -u]) * slip
+    stdin = " ".join(repr(float(r)) for r in rates)
+    torque, slope = np.array([[float(v) for v in line.split()]
+                              for line in checks("pendulum")("law", friction, slip,
+                                                             stdin=stdin).splitlines()]).T
+    exact = -friction * np.tanh(rates / slip)
+    assert np.max(np.abs(torque - exact)) <= 4 * np.finfo(float).eps * friction
+    assert np.array_equal(torque[: len(u)], -torque[len(u):])
+    assert np.all(np.abs(torque) <= friction) and np.all(torque * rates <= 0.0)  # opposes
+    # the slope: d torque / d rate, the central difference's error O(delta^2) + round-off
+    inside = np.abs(rates) < 30 * slip
+    delta = 1e-6 * slip
+    probes = np.concatenate([rates[inside] - delta, rates[inside] + delta])
+    stdin = " ".join(repr(float(r)) for r in probes)
+    around = np.array([float(line.split()[0]) for line in
+                       checks("pendulum")("law", friction, slip, stdin=stdin).splitlines()])
+    n = int(inside.sum())
+    difference = (around[n:] - around[:n]) / (2 * delta)
+    assert np.max(np.abs(slope[inside] - difference)) <= 1e-8 * friction / slip
+    assert np.all(slope <= 0.0)
+
+
 @pytest.mark.parametrize("diagonal", [True, False])
 def test_plastic_impact_is_the_mass_orthogonal_velocity_projection(checks, diagonal):
     rng = np.random.default_rng(2)
