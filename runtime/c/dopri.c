@@ -117,61 +117,50 @@ void dep_dopri_step(dep_rk_step *rk, dep_rhs_function rhs, void *context, double
    (DenseStep, 4th order), or the cubic Hermite interpolant of a Rosenbrock step's ends. */
 void dep_dense_components(const dep_rk_step *rk, double t, int first, int count, double *out)
 {
-    dep_dense_points(rk, 1, &t, first, count, out);
-}
-
-void dep_dense_points(const dep_rk_step *rk, int points, const double *times, int first,
-                      int count, double *out)
-{
     int n = rk->n;
+    double x = (t - rk->t0) / rk->h;
     if (rk->method == DEP_ROSENBROCK) {
-        for (int p = 0; p < points; ++p) {
-            double x = (times[p] - rk->t0) / rk->h;
-            double h00 = (1 + 2 * x) * (1 - x) * (1 - x), h10 = x * (1 - x) * (1 - x);
-            double h01 = x * x * (3 - 2 * x), h11 = x * x * (x - 1);
-            for (int j = first; j < first + count; ++j) {
-                out[(size_t)p * count + j - first] = h00 * rk->y0[j] + h01 * rk->y1[j]
-                    + rk->h * (h10 * rk->K[j] + h11 * rk->K[6 * (size_t)n + j]);
-            }
+        double h00 = (1 + 2 * x) * (1 - x) * (1 - x), h10 = x * (1 - x) * (1 - x);
+        double h01 = x * x * (3 - 2 * x), h11 = x * x * (x - 1);
+        for (int j = first; j < first + count; ++j) {
+            out[j - first] = h00 * rk->y0[j] + h01 * rk->y1[j]
+                + rk->h * (h10 * rk->K[j] + h11 * rk->K[6 * (size_t)n + j]);
         }
         return;
     }
-    for (int p = 0; p < points; ++p) { /* y0 + h sum_s b_s(x) K_s, b_s(x) = sum_c P_sc x^(c+1) */
-        double x = (times[p] - rk->t0) / rk->h, weight[7];
-        const double *K[7];
-        int used = 0;
-        for (int stage = 0; stage < 7; ++stage) { /* the stages of non-zero weight */
-            const double *c = P[stage];
-            double w = rk->h * x * (c[0] + x * (c[1] + x * (c[2] + x * c[3])));
-            if (w != 0.0) {
-                weight[used] = w;
-                K[used++] = rk->K + (size_t)stage * n + first;
-            }
+    double weight[7]; /* y0 + h sum_s b_s(x) K_s, b_s(x) = sum_c P_sc x^(c+1) */
+    const double *K[7];
+    int used = 0;
+    for (int stage = 0; stage < 7; ++stage) { /* the stages of non-zero weight */
+        const double *c = P[stage];
+        double w = rk->h * x * (c[0] + x * (c[1] + x * (c[2] + x * c[3])));
+        if (w != 0.0) {
+            weight[used] = w;
+            K[used++] = rk->K + (size_t)stage * n + first;
         }
-        double *row = out + (size_t)p * count;
-        const double *y0 = rk->y0 + first;
-        int j = 0;
-        for (; j + 4 <= count; j += 4) { /* in stage order in registers, as combine */
-            double s0 = y0[j], s1 = y0[j + 1], s2 = y0[j + 2], s3 = y0[j + 3];
-            for (int s = 0; s < used; ++s) {
-                const double w = weight[s], *k = K[s] + j;
-                s0 += w * k[0];
-                s1 += w * k[1];
-                s2 += w * k[2];
-                s3 += w * k[3];
-            }
-            row[j] = s0;
-            row[j + 1] = s1;
-            row[j + 2] = s2;
-            row[j + 3] = s3;
+    }
+    const double *y0 = rk->y0 + first;
+    int j = 0;
+    for (; j + 4 <= count; j += 4) { /* in stage order in registers, as combine */
+        double s0 = y0[j], s1 = y0[j + 1], s2 = y0[j + 2], s3 = y0[j + 3];
+        for (int s = 0; s < used; ++s) {
+            const double w = weight[s], *k = K[s] + j;
+            s0 += w * k[0];
+            s1 += w * k[1];
+            s2 += w * k[2];
+            s3 += w * k[3];
         }
-        for (; j < count; ++j) {
-            double sum = y0[j];
-            for (int s = 0; s < used; ++s) {
-                sum += weight[s] * K[s][j];
-            }
-            row[j] = sum;
+        out[j] = s0;
+        out[j + 1] = s1;
+        out[j + 2] = s2;
+        out[j + 3] = s3;
+    }
+    for (; j < count; ++j) {
+        double sum = y0[j];
+        for (int s = 0; s < used; ++s) {
+            sum += weight[s] * K[s][j];
         }
+        out[j] = sum;
     }
 }
 

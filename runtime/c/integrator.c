@@ -212,11 +212,6 @@ static void tangential_error(dep_run *run, const dep_outcome *outcome)
     }
 }
 
-#define DEFECTS 3 /* points inside a step where the friction's defect is measured */
-#if DEFECTS > DEP_DENSE_POINTS
-#error "dep_dense_points takes at most DEP_DENSE_POINTS times"
-#endif
-
 /* qd (nq, in place) at q inside the step moved onto the rows' velocity level, J qd = -Phi_t,
    M-orthogonally: the dense output between the passes' corrections leaves the rows by the
    multipliers' interpolation error, and a hinge rate in a friction's slip band turns a small
@@ -256,10 +251,10 @@ static void consistent_rates(dep_run *run, const dep_outcome *outcome, const dou
    the motion perturbed by the defect d(t) = law(rate(t)) - profile(t) along it, which moves
    the end state by about h integral |d| du in the velocities and half h^2 times that in the
    positions, times Mc^-1 J_h^T (Mc^-1: M^-1 along the tangent space; friction moves the
-   mechanism). d is measured at DEFECTS points of the step's dense output, its rates first
-   made consistent where a hinge's damping matters, and integrated by trapezoids (nought at
-   both ends). It sees a friction's turn that starts inside the step, which the accepted
-   torques cannot foretell. */
+   mechanism). d is measured at the step's middle on its dense output, the rates first made
+   consistent where a hinge's damping matters, and integrated by Simpson's rule, d being
+   nought at both ends: integral_0^1 d du = (2/3) d(1/2). It sees a friction's turn that
+   starts inside the step, which the accepted torques cannot foretell. */
 static void interpolation_errors(dep_run *run, const dep_outcome *outcome,
                                  const double *scale, dep_step_errors *e)
 {
@@ -293,27 +288,15 @@ static void interpolation_errors(dep_run *run, const dep_outcome *outcome,
     }
     dep_stepper_use_mobility(&run->stepper, DEP_ACCELERATION);
     double *defect = run->friction_d, *law = run->friction_table, *prescribed = law + nh;
-    double *sum = prescribed + nh, times[DEFECTS], *y = run->tangent; /* DEFECTS x (q, qd) */
-    memset(defect, 0, (size_t)nh * sizeof *defect);
-    memset(sum, 0, (size_t)nh * sizeof *sum);
-    for (int k = 0; k < DEFECTS; ++k) {
-        times[k] = start->t + (k + 1.0) / (DEFECTS + 1.0) * h;
+    double middle = start->t + 0.5 * h, *q = run->tangent, *qd = q + nq;
+    dep_dense_components(outcome->rk, middle, 0, 2 * nq, q);
+    if (outcome->friction_coupled > 0) { /* a rate error matters where the law is steep */
+        consistent_rates(run, outcome, q, qd, middle, projection);
     }
-    dep_dense_points(outcome->rk, DEFECTS, times, 0, 2 * nq, y);
-    for (int k = 0; k < DEFECTS; ++k) { /* the law along the step's trajectory against the profile */
-        double *q = y + (size_t)k * 2 * nq, *qd = q + nq;
-        if (outcome->friction_coupled > 0) { /* a rate error matters where the law is steep */
-            consistent_rates(run, outcome, q, qd, times[k], projection);
-        }
-        dep_friction_law(system, q, qd, law);
-        dep_profile_value(friction, outcome->friction, times[k], nh, prescribed);
-        for (int i = 0; i < nh; ++i) { /* trapezoids, the defect nought at both ends */
-            defect[i] += fabs(law[i] - prescribed[i]) / (DEFECTS + 1.0);
-            sum[i] += law[i] - prescribed[i];
-        }
-    }
-    for (int i = 0; i < nh; ++i) { /* integral_0^1 |defect| du, signed as its sum */
-        defect[i] = sum[i] < 0.0 ? -defect[i] : defect[i];
+    dep_friction_law(system, q, qd, law); /* the law along the step's trajectory */
+    dep_profile_value(friction, outcome->friction, middle, nh, prescribed);
+    for (int i = 0; i < nh; ++i) {
+        defect[i] = 2.0 / 3.0 * (law[i] - prescribed[i]);
     }
     system->model->hinge_jacobian(new->q, system->p, system->hinge_jacobian);
     dep_hinge_transpose_times(system, system->hinge_jacobian, defect, column);
@@ -638,11 +621,11 @@ static int setup(dep_run *run, const double *params, const dep_event *events, in
                                       + 3 * ny + 2 * nq);
     run->dense_J = dep_doubles(arena, DEP_JACOBIAN_SIZE(m));
     run->dense_lam = dep_doubles(arena, capacity);
-    run->tangent = dep_doubles(arena, ny > 6 * nq ? ny : 6 * nq); /* also 3 x (q, qd) */
+    run->tangent = dep_doubles(arena, ny); /* also the defect's (q, qd) */
     size_t nh = (size_t)m->nh + 1;
     run->friction_predicted = dep_doubles(arena, nh);
     run->friction_d = dep_doubles(arena, nh);
-    run->friction_table = dep_doubles(arena, (DEP_PROFILE_NODES + 2) * nh);
+    run->friction_table = dep_doubles(arena, 2 * (size_t)nh);
     run->normal = dep_doubles(arena, 4 * capacity + 6 * nq);
     double **vectors[] = {&run->y, &run->dy, &run->work};
     for (size_t i = 0; i < 3; ++i) {

@@ -92,10 +92,6 @@ int dep_rk_init(dep_rk_step *rk, int n, dep_arena *arena);
 void dep_dopri_step(dep_rk_step *rk, dep_rhs_function rhs, void *context, double t0,
                     const double *y0, const double *k1, double h, double *scratch);
 void dep_dense_components(const dep_rk_step *rk, double t, int first, int count, double *out);
-/* The same at `points` times at once (at most DEP_DENSE_POINTS): out is points x count. */
-#define DEP_DENSE_POINTS 4
-void dep_dense_points(const dep_rk_step *rk, int points, const double *times, int first,
-                      int count, double *out);
 void dep_interpolant_data(double h, const double *q0, const double *qd0, const double *qdd0,
                           const double *q1, const double *qd1, const double *qdd1, int nq,
                           double *data);
