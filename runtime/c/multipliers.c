@@ -759,10 +759,13 @@ static void measure_projection(void *context, const double *mu, dep_measurement 
     transpose_times(pr->mp, pr->J, nc, mu, column);
     dep_multipliers_apply(pr->mp, column, solved);
     memset(column, 0, (size_t)nq * sizeof *column);
-    for (int j = 0; j < nq; ++j) {
+    for (int j = 0; j < nq; ++j) { /* qd+, and the size of what it cancels */
         out->x[j] = pr->qd[j] - solved[j];
+        column[j] = fabs(pr->qd[j]) + fabs(solved[j]);
     }
-    out->scale = dep_cs_times_scale(pr->mp->cs, pr->J, out->x, out->v);
+    out->scale = dep_cs_times_scale(pr->mp->cs, pr->J, column, out->v);
+    memset(column, 0, (size_t)nq * sizeof *column);
+    dep_cs_times(pr->mp->cs, pr->J, out->x, out->v);
     for (int a = 0; a < nc; ++a) {
         out->v[a] = -out->v[a] - pr->phi_t[a];
     }
@@ -770,7 +773,11 @@ static void measure_projection(void *context, const double *mu, dep_measurement 
     out->jacobian_id = pr->jacobian_id;
 }
 
-/* qd+ = qd - M^-1 J^T mu with J qd+ + phi_t = 0 by the iteration (6) with C = 1. */
+/* qd+ = qd - M^-1 J^T mu with J qd+ + phi_t = 0 by the iteration (6) with C = 1. The
+   limit's round-off scale is J applied to |qd| + |M^-1 J^T mu|, the sizes qd+ is the
+   difference of: an impact that locks the whole mechanism leaves qd+ near nought, and a scale
+   from qd+ alone asked J qd+ for less than the round-off of that difference (the accordion's
+   last latch at tol 1e-11). */
 int dep_project_velocity(dep_multipliers *mp, const double *J, long long jacobian_id, int nc,
                          const double *qd, const double *phi_t, double tol, double *qd_new,
                          double *mu, dep_measurement *slots[2], dep_pass_report *report,
