@@ -276,6 +276,8 @@ static void refresh_names(dep_constraints *cs)
     for (int i = 0; i < cs->n_added; ++i) {
         cs->row_names[cs->nc_module + i] = cs->added[i].name;
         cs->row_joints[cs->nc_module + i] = cs->added[i].joint;
+        cs->lock_kind[i] = dep_lock_row(cs->system->model, cs->added[i].name,
+                                        &cs->lock_hinge[i]);
     }
     refresh_pattern(cs);
 }

@@ -61,28 +61,37 @@ void dep_hinge_forces(const dep_loads *loads, const double *lam, double *forces)
     }
 }
 
-/* Is `name` "<hinge>.<kind>"? */
-static int names_lock(const char *name, const char *hinge, size_t length, const char *kind)
+int dep_lock_row(const dep_model *model, const char *name, int *hinge)
 {
-    return strncmp(name, hinge, length) == 0 && name[length] == '.'
-           && strcmp(name + length + 1, kind) == 0;
+    for (int k = 0; k < model->nh; ++k) {
+        size_t length = strlen(model->hinge_names[k]);
+        if (strncmp(name, model->hinge_names[k], length) != 0 || name[length] != '.') {
+            continue;
+        }
+        for (int kind = 0; kind < 4; ++kind) {
+            if (strcmp(name + length + 1, LOCK_ROWS[kind]) == 0) {
+                *hinge = k;
+                return kind;
+            }
+        }
+    }
+    *hinge = -1;
+    return -1;
 }
 
 /* T_h = -lambda of each hinge's active lock rows (nh; the rows added at run time), NAN where
-   none is active. */
+   none is active: summed by kind in LOCK_ROWS order, then in row order. */
 void dep_lock_torques(const dep_model *model, const dep_constraints *cs, const double *lam,
                       double *torques)
 {
     for (int k = 0; k < model->nh; ++k) {
-        const char *hinge = model->hinge_names[k];
-        size_t length = strlen(hinge);
         torques[k] = NAN;
-        for (int kind = 0; kind < 4 && cs->n_added > 0; ++kind) {
-            for (int i = cs->nc_module; i < cs->nc; ++i) {
-                if (names_lock(cs->row_names[i], hinge, length, LOCK_ROWS[kind])
-                    && isfinite(lam[i])) {
-                    torques[k] = isnan(torques[k]) ? -lam[i] : torques[k] - lam[i];
-                }
+    }
+    for (int kind = 0; kind < 4; ++kind) {
+        for (int a = 0; a < cs->n_added; ++a) {
+            int i = cs->nc_module + a, k = cs->lock_hinge[a];
+            if (cs->lock_kind[a] == kind && isfinite(lam[i])) {
+                torques[k] = isnan(torques[k]) ? -lam[i] : torques[k] - lam[i];
             }
         }
     }

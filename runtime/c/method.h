@@ -34,6 +34,8 @@ typedef struct dep_constraints {
     long long pattern;         /* changes whenever row_start and row_cols do */
     int *lock_start;           /* nh + 1: hinge h's columns are lock_cols[lock_start[h]..) */
     const int *lock_cols;
+    int lock_kind[DEP_MAX_ADDED], lock_hinge[DEP_MAX_ADDED]; /* each added row's, by its name
+                                                                (dep_lock_row) */
 } dep_constraints;
 
 /* Doubles that hold a Jacobian of any active set: Phi_q's non-zeros and every added row's. */

@@ -45,6 +45,9 @@ typedef struct dep_loads {
 
 int dep_loads_init(dep_loads *loads, const dep_model *model, dep_arena *arena);
 void dep_hinge_forces(const dep_loads *loads, const double *lam, double *forces);
+/* The kind (0 latch, 1 stop, 2 stick, 3 lock) of a row named "<hinge>.<kind>", its hinge in
+   *hinge; -1 (and -1) for any other name. */
+int dep_lock_row(const dep_model *model, const char *name, int *hinge);
 void dep_lock_torques(const dep_model *model, const dep_constraints *cs, const double *lam,
                       double *torques);
 void dep_loads_observe(dep_loads *loads, double t, const double *forces, const double *torques);
