@@ -44,6 +44,9 @@ class SymbolicSystem:
     phi: ImmutableMatrix  # (NC, 1)
     phi_q: ImmutableSparseMatrix  # (NC, NQ)
     phi_q_pattern: tuple[tuple[int, int], ...]  # structural non-zeros of phi_q, row-major
+    lam: tuple[sympy.Symbol, ...]  # NC multipliers, for phi_q_lam
+    phi_q_entries: Group  # Phi_q's non-constant non-zeros as symbols := their expressions
+    phi_q_lam: ImmutableMatrix  # (NQ, 1) Phi_q^T lam over those symbols and lam
     phi_t: ImmutableMatrix  # (NC, 1)
     gamma: ImmutableMatrix  # (NC, 1)
     force: ImmutableMatrix  # (NQ, 1)
@@ -105,6 +108,24 @@ def times(matrix: ImmutableSparseMatrix, vector) -> ImmutableMatrix:
     return column(sympy.Add(*row) for row in terms)
 
 
+def _transpose_times(phi_q: ImmutableSparseMatrix
+                     ) -> tuple[tuple[sympy.Symbol, ...], Group, ImmutableMatrix]:
+    """Multiplier symbols lam, Phi_q's non-constant non-zeros named as steps, and Phi_q^T lam
+    in those names: each entry computed once and multiplied by its row's multiplier, as a
+    product with the Jacobian's values would (the names keep sympy from distributing an
+    entry's factors over the sum). '@' keeps the names apart from the parameters'."""
+    lam = tuple(sympy.Symbol(f"@lambda{i}") for i in range(phi_q.rows))
+    entries: list[tuple[sympy.Symbol, sympy.Expr]] = []
+    terms: list[list[sympy.Expr]] = [[] for _ in range(phi_q.cols)]
+    for (i, j), value in sorted(phi_q.todok().items()):
+        if not value.is_Number:
+            name = sympy.Symbol(f"@Phi_q{i},{j}")
+            entries.append((name, value))
+            value = name
+        terms[j].append(value * lam[i])
+    return lam, tuple(entries), column(sympy.Add(*column_terms) for column_terms in terms)
+
+
 def acceleration_rhs(vector: ImmutableMatrix, vector_q: ImmutableSparseMatrix,
                      symbols: Coordinates) -> ImmutableMatrix:
     """gamma = -(V_q qd)_q qd - 2 V_qt qd - V_tt of a vector V(q, t): V_q qdd = gamma is
@@ -123,6 +144,7 @@ def derive(model: ir.Model) -> SymbolicSystem:
     rows = _constraints(model, kin, assembly.at_start)
     phi = column(residual for _, _, residual in rows)
     phi_q = jacobian(phi, q)
+    lam, entries, phi_q_lam = _transpose_times(phi_q)
     phi_t = phi.diff(t)
     thetas = column(kin.hinge_theta(i) for i in range(len(model.hinges)))
     hinge_jacobian = jacobian(thetas, q)
@@ -133,7 +155,8 @@ def derive(model: ir.Model) -> SymbolicSystem:
         mass_matrix=mass, mass_pattern=_pattern(mass),
         constraint_names=tuple(name for name, _, _ in rows),
         constraint_joints=tuple(joint for _, joint, _ in rows),
-        phi=phi, phi_q=phi_q, phi_q_pattern=_pattern(phi_q), phi_t=phi_t,
+        phi=phi, phi_q=phi_q, phi_q_pattern=_pattern(phi_q), lam=lam,
+        phi_q_entries=entries, phi_q_lam=phi_q_lam, phi_t=phi_t,
         gamma=acceleration_rhs(phi, phi_q, symbols), force=column(loads.force),
         hinge_names=tuple(h.name for h in model.hinges),
         slider_names=tuple(s.name for s in model.sliders),

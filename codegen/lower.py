@@ -122,12 +122,14 @@ def function_specs(system: SymbolicSystem) -> tuple[FunctionSpec, ...]:
     s = system
     q, qd = column(s.q), column(s.qd)
     placed = tuple(g for pair in zip(s.tree_pose, s.tree_tangent) for g in pair)
-    steps = {"tree_pose": s.tree_pose, "tree_tangent": placed}
+    steps = {"tree_pose": s.tree_pose, "tree_tangent": placed,
+             "phi_q_transpose_times": (s.phi_q_entries,)}
     matrices = {
         "mass_matrix": (column(s.mass_matrix[i, j] for i, j in s.mass_pattern),),
         "tree_values": (s.tree_v0, s.tree_vd0), "tree_pose": (q,), "tree_tangent": (qd,),
         "loop_targets": (s.loop_angles, s.loop_rates), "phi": (s.phi,),
-        "phi_q": (column(s.phi_q[i, j] for i, j in s.phi_q_pattern),), "phi_t": (s.phi_t,),
+        "phi_q": (column(s.phi_q[i, j] for i, j in s.phi_q_pattern),),
+        "phi_q_transpose_times": (s.phi_q_lam,), "phi_t": (s.phi_t,),
         "gamma": (s.gamma,), "force": (s.force,), "hinge_angles": (s.hinge_angles,),
         "hinge_rates": (s.hinge_rates,), "hinge_jacobian": (column(s.hinge_jacobian[i, j] for i, j in s.hinge_jacobian_pattern),),
         "hinge_gamma": (s.hinge_gamma,), "hinge_properties": (s.hinge_properties,),
@@ -143,7 +145,8 @@ def function_specs(system: SymbolicSystem) -> tuple[FunctionSpec, ...]:
 
 def slots(system: SymbolicSystem, args: tuple[str, ...]) -> dict[sympy.Symbol, str]:
     """Input symbol -> array slot text (`q[3]`, `p[7]`, `t`) for a function's arguments."""
-    arrays = {"v": system.v, "vd": system.vd, "q": system.q, "qd": system.qd, "p": system.p}
+    arrays = {"v": system.v, "vd": system.vd, "q": system.q, "qd": system.qd, "p": system.p,
+              "lam": system.lam}
     table = {system.t: "t"} if "t" in args else {}
     for name in args:
         table.update({s: f"{name}[{i}]" for i, s in enumerate(arrays.get(name, ()))})

@@ -11,8 +11,7 @@ runtime/c equal to it), and the runtime fills a `dep_model` from a NumPy module 
 
 Arrays are float64 in SI units; q, qd have NQ entries, p NP; t is the time (s); v holds the
 values of the assembly tree's joints (NV: angles, rad, and slider displacements, m), vd their
-rates. Matrices
-are row-major. A function writes every entry of its results (zeros included).
+rates; lam holds NC multipliers (the constraint rows' forces). Matrices are row-major. A function writes every entry of its results (zeros included).
 """
 
 from __future__ import annotations
@@ -21,9 +20,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-ABI = 8  # DEP_MODEL_ABI: bumped whenever the dep_model struct changes
+ABI = 9  # DEP_MODEL_ABI: bumped whenever the dep_model struct changes
 
-ARGUMENTS = ("v", "vd", "q", "qd", "t", "p")  # every function takes a subsequence, in this order
+ARGUMENTS = ("v", "vd", "q", "qd", "t", "p", "lam")  # each function takes a subsequence, in order
 
 
 @dataclass(frozen=True, slots=True)
@@ -147,6 +146,9 @@ FUNCTIONS = (
              "Constraint residuals Phi(q, t), shape (NC,)."),
     Function("phi_q", ("q", "t", "p"), (Output("phi_q", ("nnz",)),),
              "Values of Phi_q at (PHI_Q_ROWS, PHI_Q_COLS)."),
+    Function("phi_q_transpose_times", ("q", "t", "p", "lam"), (Output("f", ("nq",)),),
+             "Phi_q^T lam for multipliers lam (NC,): the constraints' generalized force, shape "
+             "(NQ,)."),
     Function("phi_t", ("q", "t", "p"), (Output("phi_t", ("nc",)),),
              "dPhi/dt, shape (NC,)."),
     Function("gamma", ("q", "qd", "t", "p"), (Output("gamma", ("nc",)),),
@@ -224,7 +226,7 @@ def check_module(module) -> None:
 
 _C_ARGUMENTS = {"v": "const double *v", "vd": "const double *vd", "q": "const double *q",
                 "qd": "const double *qd",
-                "t": "double t", "p": "const double *p"}
+                "t": "double t", "p": "const double *p", "lam": "const double *lam"}
 
 
 def c_declaration(function: Function, restrict: bool = False) -> str:

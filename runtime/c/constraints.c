@@ -113,7 +113,6 @@ int dep_constraints_init(dep_constraints *cs, const dep_system *system, dep_aren
     cs->capacity = model->nc + DEP_MAX_ADDED;
     cs->row_names = dep_bytes(arena, (size_t)cs->capacity * sizeof *cs->row_names);
     cs->row_joints = dep_bytes(arena, (size_t)cs->capacity * sizeof *cs->row_joints);
-    cs->values = dep_doubles(arena, (size_t)model->nnz);
     cs->theta = dep_doubles(arena, nh);
     cs->hinge_jacobian = dep_doubles(arena, (size_t)model->nhnz + 1);
     cs->row_values = dep_doubles(arena, nq);
@@ -203,12 +202,7 @@ void dep_cs_jacobian(dep_constraints *cs, const double *q, double t, double *J)
 void dep_cs_jacobian_transpose_times(dep_constraints *cs, const double *q, double t,
                                      const double *lam, double *out)
 {
-    const dep_model *model = cs->system->model;
-    memset(out, 0, (size_t)cs->nq * sizeof *out);
-    model->phi_q(q, t, cs->system->p, cs->values);
-    for (int k = 0; k < model->nnz; ++k) { /* np.bincount order */
-        out[model->phi_q_cols[k]] += cs->values[k] * lam[model->phi_q_rows[k]];
-    }
+    cs->system->model->phi_q_transpose_times(q, t, cs->system->p, lam, out);
     for (int i = 0; i < cs->n_added; ++i) {
         int a = cs->nc_module + i;
         const double *row = row_jacobian(cs, i, q);

@@ -11,7 +11,7 @@
 #ifndef DEPSIM_MODEL_H
 #define DEPSIM_MODEL_H
 
-#define DEP_MODEL_ABI 8 /* bumped whenever this struct changes */
+#define DEP_MODEL_ABI 9 /* bumped whenever this struct changes */
 
 typedef struct dep_model {
     int abi; /* DEP_MODEL_ABI of the header the model was compiled with */
@@ -89,6 +89,8 @@ typedef struct dep_model {
     void (*phi)(const double *q, double t, const double *p, double *phi);
     /* Values of Phi_q at (PHI_Q_ROWS, PHI_Q_COLS). */
     void (*phi_q)(const double *q, double t, const double *p, double *phi_q);
+    /* Phi_q^T lam for multipliers lam (NC,): the constraints' generalized force, shape (NQ,). */
+    void (*phi_q_transpose_times)(const double *q, double t, const double *p, const double *lam, double *f);
     /* dPhi/dt, shape (NC,). */
     void (*phi_t)(const double *q, double t, const double *p, double *phi_t);
     /* Right side of Phi_q qdd = gamma, shape (NC,). */

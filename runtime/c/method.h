@@ -24,7 +24,7 @@ typedef struct dep_constraints {
     dep_added_row added[DEP_MAX_ADDED];
     const char **row_names; /* capacity */
     const char **row_joints;
-    double *values, *theta, *hinge_jacobian, *row_values; /* scratch */
+    double *theta, *hinge_jacobian, *row_values; /* scratch */
     /* Where the active rows' Jacobian can be non-zero: row i's columns are
        row_cols[row_start[i] .. row_start[i + 1]). The model's rows from PHI_Q_ROWS/COLS, a
        hinge lock from HINGE_JACOBIAN_ROWS/COLS, a linear row from its own non-zeros. A

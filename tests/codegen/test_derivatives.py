@@ -36,6 +36,23 @@ def test_phi_q_is_the_jacobian_of_phi(compiled):
         assert_close(dense(m, "phi_q", s.q, s.t, s.p), numeric)
 
 
+def test_phi_q_transpose_times_is_the_jacobian_transposed_times_lam(compiled):
+    """Phi_q^T lam, the constraints' generalized force at the stages: against the finite
+    differences of Phi (as Phi_q itself) and, to round-off, the values of Phi_q."""
+    m = compiled.module
+    rng = np.random.default_rng(3)
+    for s in random_states(m):
+        lam = rng.standard_normal(m.NC)
+        got = m.phi_q_transpose_times(s.q, s.t, s.p, lam)
+        numeric = central_jacobian(lambda q: m.phi(q, s.t, s.p), s.q)
+        assert_close(got, numeric.T @ lam)
+        values = dense(m, "phi_q", s.q, s.t, s.p)
+        # the same entries summed in another order: within (terms + 1) eps of their sizes
+        terms = np.bincount(np.array(m.PHI_Q_COLS, dtype=int), minlength=m.NQ)
+        bound = (terms + 1) * np.finfo(float).eps * (np.abs(values).T @ np.abs(lam))
+        assert np.all(np.abs(got - values.T @ lam) <= bound)
+
+
 def test_phi_q_pattern_is_sorted_and_unique(compiled):
     m = compiled.module
     pairs = list(zip(m.PHI_Q_ROWS, m.PHI_Q_COLS))

@@ -26,7 +26,8 @@ HERE = Path(__file__).resolve().parent
 # docs/generated-module.md: every function and its arguments.
 INTERFACE = {
     "mass_matrix": ("p",),
-    "phi": ("q", "t", "p"), "phi_q": ("q", "t", "p"), "phi_t": ("q", "t", "p"),
+    "phi": ("q", "t", "p"), "phi_q": ("q", "t", "p"),
+    "phi_q_transpose_times": ("q", "t", "p", "lam"), "phi_t": ("q", "t", "p"),
     "gamma": ("q", "qd", "t", "p"), "force": ("q", "qd", "t", "p"),
     "hinge_angles": ("q", "p"), "hinge_rates": ("q", "qd", "p"), "hinge_jacobian": ("q", "p"),
     "hinge_gamma": ("q", "qd", "p"), "hinge_properties": ("p",),

@@ -127,6 +127,18 @@ def phi_q(q, t, p):
     return phi_q
 
 
+def phi_q_transpose_times(q, t, p, lam):
+    """Phi_q^T lam for multipliers lam (NC,): the constraints' generalized force, shape (NQ,)."""
+    f = numpy.zeros((3,))
+    f[0] = -lam[0]
+    f[1] = -lam[1]
+    x0 = 0.5*p[0]
+    s1 = x0*math.cos(q[2])
+    s0 = -x0*math.sin(q[2])
+    f[2] = lam[0]*s0 + lam[1]*s1
+    return f
+
+
 def phi_t(q, t, p):
     """dPhi/dt, shape (NC,)."""
     phi_t = numpy.zeros((2,))

@@ -26,10 +26,13 @@ def drifting_pin(pendulum, start=0.1, rate=1e-2):
         base = pendulum.gamma(q, qd, t, p)
         return np.append(base, base[0] + shift(t, 2))
 
+    def phi_q_transpose_times(q, t, p, lam):  # the third row repeats the first's values
+        return pendulum.phi_q_transpose_times(q, t, p, np.array([lam[0] + lam[2], lam[1]]))
+
     return variant(pendulum, NC=3, CONSTRAINTS=("pivot.x", "pivot.y", "pin.x"),
                    CONSTRAINT_JOINTS=("pivot", "pivot", "pin"), HINGES=("pivot", "pin"),
                    PHI_Q_ROWS=(0, 0, 1, 1, 2, 2), PHI_Q_COLS=(0, 2, 1, 2, 0, 2), phi=phi,
-                   phi_q=phi_q, gamma=gamma,
+                   phi_q=phi_q, phi_q_transpose_times=phi_q_transpose_times, gamma=gamma,
                    phi_t=lambda q, t, p: np.array([0.0, 0.0, -shift(t, 1)]),
                    hinge_angles=lambda q, p: np.repeat(pendulum.hinge_angles(q, p), 2),
                    hinge_rates=lambda q, qd, p: np.repeat(pendulum.hinge_rates(q, qd, p), 2),

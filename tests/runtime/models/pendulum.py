@@ -88,6 +88,12 @@ def phi_q(q, t, p):
     return np.array([1.0, L / 2 * np.sin(q[2]), 1.0, -L / 2 * np.cos(q[2])])
 
 
+def phi_q_transpose_times(q, t, p, lam):
+    out = np.zeros(NQ)
+    np.add.at(out, list(PHI_Q_COLS), phi_q(q, t, p) * np.asarray(lam)[list(PHI_Q_ROWS)])
+    return out
+
+
 def phi_t(q, t, p):
     return np.zeros(2)
 

@@ -118,6 +118,12 @@ def phi_q(q, t, p):
                      1.0, 1.0])
 
 
+def phi_q_transpose_times(q, t, p, lam):
+    out = np.zeros(NQ)
+    np.add.at(out, list(PHI_Q_COLS), phi_q(q, t, p) * np.asarray(lam)[list(PHI_Q_ROWS)])
+    return out
+
+
 def phi_t(q, t, p):
     return np.zeros(8)
 
