@@ -12,8 +12,9 @@
 /* ---- the laws ------------------------------------------------------------------------------ */
 
 /* tanh(u) as 1 - 2 / (exp(2 |u|) + 1) with u's sign: within a few units of round-off of 1 in
-   absolute terms (all the friction law needs), and a third of libm's tanh's time, which goes
-   through expm1 (its relative accuracy near 0, which nothing here uses). */
+   absolute terms (all the friction law needs), in a little over half of libm's tanh's time
+   (5.4 against 9.5 ns for |u| < 2), which goes through expm1 for a relative accuracy near 0
+   that nothing here uses. */
 static double smooth_sign(double u)
 {
     return copysign(1.0 - 2.0 / (exp(2.0 * fabs(u)) + 1.0), u);
