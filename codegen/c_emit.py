@@ -5,7 +5,9 @@ C compiler and libm only (docs/c-target.md):
 
     model.c, model.h       the generated functions and the `depsim_model` description
     model_<name>.c         a long function of a large model, in a file of its own
-    *.c, *.h from runtime/c  the integrator (copied unchanged; never generated per model)
+    main.c                 the standalone program (runtime/c/targets/program/main.c)
+    core/                  the integrator core as runtime/c lays it out (copied unchanged;
+                           never generated per model)
     Makefile               builds the program `<name>` and the library `lib<name>.so`
 
 Same SymbolicSystem, same CSE lowering (`lower.lower_module`) as the NumPy module, printed by
@@ -14,7 +16,6 @@ arguments, zero fills, literal tables). Emission is byte-for-byte reproducible."
 
 from __future__ import annotations
 
-import importlib.util
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,6 +23,7 @@ from pathlib import Path
 from depsim.dsl import ir
 
 from depsim.runtime import interface
+from depsim.runtime.core import CFLAGS, CORE_FOLDER, PROGRAM_SOURCE, SOURCE_DIR, core_files
 
 from .c_printer import CPrinter, c_comment, c_double, c_file_stem, c_string
 from .derive import SymbolicSystem, derive
@@ -39,7 +41,7 @@ GENERATED_FILES = ("model.c", "model.h", "Makefile")
 # models keep everything in model.c.
 OWN_FILE_CHARS = 50_000
 _INTERFACE = {f.name: f for f in interface.FUNCTIONS}
-PROGRAM_SOURCE = "main.c"  # the program's entry point, left out of the library
+PROGRAM = "main.c"  # the program's entry point in the folder, left out of the library
 
 
 
@@ -110,15 +112,15 @@ class CModuleView:
     functions: tuple[CFunction, ...]
     files: tuple[CFile, ...]  # model.c, then model_<name>.c for each long function
     library_sources: tuple[str, ...]  # .c files of the library (model*.c and the integrator)
-    headers: tuple[str, ...]
+    headers: tuple[str, ...]  # every header the sources include (make's dependencies)
 
 
-def runtime_c_dir() -> Path:
-    """The integrator's C sources (runtime/c, installed as package data of depsim.runtime);
-    found without importing depsim.runtime."""
-    spec = importlib.util.find_spec("depsim.runtime")
-    assert spec is not None and spec.submodule_search_locations, "depsim.runtime not found"
-    return Path(list(spec.submodule_search_locations)[0]) / "c"
+def core_folder_files() -> dict[str, Path]:
+    """The integrator's files a C target folder holds: their names in the folder (`main.c`,
+    `core/...`) and their sources in runtime/c (installed as package data of depsim.runtime)."""
+    files = {f"{CORE_FOLDER}/{name}": SOURCE_DIR / name for name in core_files()}
+    files[PROGRAM] = SOURCE_DIR / PROGRAM_SOURCE
+    return files
 
 
 def _uses(texts: list[str], arg: str) -> bool:
@@ -160,7 +162,8 @@ def _tables(m: ModuleView) -> tuple[CTable, ...]:
 
 
 def c_view(view: ModuleView, runtime_files: tuple[str, ...]) -> CModuleView:
-    """The C target's view-model of a lowered module; `runtime_files`: names in runtime/c."""
+    """The C target's view-model of a lowered module; `runtime_files`: the integrator's file
+    names in the folder (core_folder_files)."""
     m = view
     sizes = tuple((field, value) for field, _, value in m.sizes)
     functions = tuple(c_function(f) for f in m.functions)
@@ -168,8 +171,9 @@ def c_view(view: ModuleView, runtime_files: tuple[str, ...]) -> CModuleView:
     files = (CFile("model.c", tuple(f for f in functions if f not in long), True),) + tuple(
         CFile(f"model_{f.name}.c", (f,), False) for f in long)
     sources = tuple(f.name for f in files) + tuple(sorted(
-        f for f in runtime_files if f.endswith(".c") and f != PROGRAM_SOURCE))
-    headers = ("model.h",) + tuple(sorted(f for f in runtime_files if f.endswith(".h")))
+        f for f in runtime_files if f.endswith(".c") and f != PROGRAM))
+    headers = ("model.h",) + tuple(sorted(f for f in runtime_files
+                                          if f.endswith((".h", ".inc"))))
     return CModuleView(m, c_file_stem(m.model_name), sizes, _tables(m), functions, files,
                        sources, headers)
 
@@ -185,12 +189,9 @@ def c_target(model: ir.Model, system: SymbolicSystem | None = None
     """The lowered module (its sizes, tables and identity, for targets that wrap the C model:
     codegen.fmu) and the generated files of `c_sources`, from one lowering."""
     from depsim import __version__  # the facade package imports codegen lazily
-    from depsim.runtime.core import CFLAGS  # the flags depsim builds the same sources with
 
     view = lower_module(model, system or derive(model), CPrinter, __version__)
-    runtime = tuple(sorted(path.name for path in runtime_c_dir().iterdir()
-                           if path.suffix in (".c", ".h")))
-    c = c_view(view, runtime)
+    c = c_view(view, tuple(core_folder_files()))
     files = {name: C_ENVIRONMENT.get_template(f"c/{name}.j2").render(c=c, m=view,
                                                                      cflags=" ".join(CFLAGS))
              for name in GENERATED_FILES if name != "model.c"}
@@ -207,9 +208,9 @@ def compile_c(model: ir.Model, out_dir: Path, system: SymbolicSystem | None = No
     `depsim.runtime.clib.build_library(out_dir)`."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    for path in sorted(runtime_c_dir().iterdir()):
-        if path.suffix in (".c", ".h"):
-            _write_if_changed(out_dir / path.name, path.read_text(encoding="utf-8"))
+    for name, source in core_folder_files().items():
+        (out_dir / name).parent.mkdir(parents=True, exist_ok=True)
+        _write_if_changed(out_dir / name, source.read_text(encoding="utf-8"))
     for name, text in c_sources(model, system).items():
         _write_if_changed(out_dir / name, text)
     return out_dir
@@ -227,4 +228,4 @@ def _write_if_changed(path: Path, text: str) -> None:
     path.write_text(text, encoding="utf-8", newline="\n")
 
 
-__all__ = ["compile_c", "c_sources", "c_target", "c_program_name", "runtime_c_dir"]
+__all__ = ["compile_c", "c_sources", "c_target", "c_program_name", "core_folder_files"]

@@ -25,6 +25,8 @@ import sympy
 from sympy.printing.c import C99CodePrinter
 from sympy.printing.precedence import precedence
 
+from depsim.runtime.core import CORE_FOLDER
+
 from .printing import SlotPrinter
 
 LARGEST_INTEGER_LITERAL = 2 ** 31 - 1  # an `int` on every C99 platform
@@ -149,7 +151,9 @@ _IDENTIFIER = re.compile(r"[^A-Za-z0-9_]")
 # file system): make's files, the Makefile's targets (templates/c/Makefile.j2: `make clean`
 # must not be the program's rule) and earlier reserved words. tests/c check that this covers
 # every target and file of a generated folder.
-RESERVED_STEMS = frozenset({"makefile", "gnumakefile", "all", "clean", "model", "depsim"})
+# the C folder's files and make targets (its core/ folder among them)
+RESERVED_STEMS = frozenset({"makefile", "gnumakefile", "all", "clean", "model", "depsim",
+                            CORE_FOLDER})
 
 
 def c_file_stem(name: str) -> str:

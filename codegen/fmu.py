@@ -23,7 +23,7 @@ from pathlib import Path
 
 from depsim.dsl import ir
 
-from .c_emit import C_ENVIRONMENT, PROGRAM_SOURCE, c_target, runtime_c_dir
+from .c_emit import C_ENVIRONMENT, PROGRAM, c_target, core_folder_files
 from .c_printer import c_file_stem
 from .derive import SymbolicSystem
 from .errors import CodegenError
@@ -289,9 +289,8 @@ def fmu_sources(model: ir.Model, system: SymbolicSystem | None = None
     """The FMU's view and every text file it holds: "modelDescription.xml" and the C
     sources (`sources/` names, each compiled into the binary but the headers)."""
     m, generated = c_target(model, system)
-    core = {path.name: path.read_text(encoding="utf-8")
-            for path in sorted(runtime_c_dir().iterdir())
-            if path.suffix in (".c", ".h") and path.name != PROGRAM_SOURCE}
+    core = {name: path.read_text(encoding="utf-8")
+            for name, path in core_folder_files().items() if name != PROGRAM}
     sources = {name: text for name, text in generated.items() if name.startswith("model")}
     sources.update(core)
     c_files = tuple(sorted([name for name in sources if name.endswith(".c")] + ["fmi2.c"]))
@@ -331,9 +330,10 @@ def _build(view: FmuView, files: dict[str, str], folder: Path, flags: tuple[str,
 
     for name, text in files.items():
         if name != "modelDescription.xml":
+            (folder / name).parent.mkdir(parents=True, exist_ok=True)
             (folder / name).write_text(text, encoding="utf-8", newline="\n")
     cc = compiler()
-    objects = [f"{Path(source).stem}.o" for source in view.source_files]
+    objects = [f"{k}_{Path(source).stem}.o" for k, source in enumerate(view.source_files)]
     run_compilers([[*cc, *flags, "-c", "-o", obj, source]
                    for source, obj in zip(view.source_files, objects)], "the FMU's binary", folder)
     target = f"{view.identifier}.so"

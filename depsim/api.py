@@ -146,9 +146,11 @@ def _generator_digest() -> str:
         if package == "depsim.codegen":
             files = sorted(folder.glob("templates/**/*.j2")) + sorted(folder.glob("*.py"))
         else:
-            files = [folder / "interface.py"] + sorted(folder.glob("c/*.[ch]"))
+            files = [folder / "interface.py"] + sorted(
+                path for path in folder.glob("c/**/*") if path.suffix in (".c", ".h", ".inc"))
         for path in files:
-            digest.update(path.name.encode() + b"\0" + path.read_bytes())
+            digest.update(path.relative_to(folder).as_posix().encode() + b"\0"
+                          + path.read_bytes())
     return digest.hexdigest()
 
 

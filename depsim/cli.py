@@ -284,16 +284,20 @@ def _compile(args) -> int:
 
 
 def _copy_generated(cached: Path, out: Path) -> Path:
-    """The cached NumPy module (a file) or C folder's sources into `out`."""
+    """The cached NumPy module (a file) or C folder's sources (its core/ among them, not its
+    build/) into `out`."""
     import shutil
 
     out.mkdir(parents=True, exist_ok=True)
     if cached.is_file():
         shutil.copyfile(cached, out / cached.name)
         return out / cached.name
-    for path in sorted(cached.iterdir()):
-        if path.is_file() and (path.suffix in (".c", ".h") or path.name == "Makefile"):
-            shutil.copyfile(path, out / path.name)
+    for path in sorted(cached.rglob("*")):
+        relative = path.relative_to(cached)
+        if (path.is_file() and relative.parts[0] != "build"
+                and (path.suffix in (".c", ".h", ".inc") or path.name == "Makefile")):
+            (out / relative).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(path, out / relative)
     return out
 
 

@@ -10,6 +10,10 @@ and kept in the cache, keyed by its sources, the compiler and the flags:
 
 The C structs are read by cffi from the headers themselves (depsim_model.h, depsim.h): no
 second definition of any field in Python.
+
+The sources are laid out in layers (runtime/c/README.md), named here once for every build that
+takes them (this library, a C target folder, an FMU): each layer's folder holds one header that
+includes only the layer below it.
 """
 
 from __future__ import annotations
@@ -26,8 +30,14 @@ import threading
 from pathlib import Path
 
 SOURCE_DIR = Path(__file__).resolve().parent / "c"
-PROGRAM_SOURCE = "main.c"  # the standalone program's entry point, not part of the core
-HEADERS = ("depsim_model.h", "depsim.h")  # the public interface, in include order
+HEADERS = ("include/depsim_model.h", "include/depsim.h")  # the public interface, include order
+LAYERS = ("base", "algebra", "system", "method", "mechanics", "run")  # bottom up
+LIBRARY_SOURCE = "targets/library.c"  # the public interface's entry points (depsim.h)
+# The targets built beside a generated model (a C target folder, an FMU) and placed next to
+# its model.h there: they include "model.h" and "core/include/depsim.h".
+PROGRAM_SOURCE = "targets/program/main.c"
+FMU_SOURCES = ("targets/fmu/fmi2.c", "targets/fmu/fmi2.h")
+CORE_FOLDER = "core"  # where a C target folder or an FMU's sources/ hold the files of core_files()
 # -fno-math-errno: sqrt is the instruction, not a libm call that may set errno (nothing reads
 # it); 4 % faster on INTELSAT V and two_link_flex, outputs bit for bit the same.
 CFLAGS = ("-O2", "-fno-math-errno", "-std=c99")
@@ -100,7 +110,7 @@ def build_shared_library(sources: list[Path], target_dir: Path, name: str,
     for part in (_compiler_identity(cc), " ".join(all_flags)):
         digest.update(part.encode() + b"\0")
     headers = {h for folder in {s.parent for s in sources} | set(include)
-               for h in Path(folder).glob("*.h")}
+               for pattern in ("*.h", "*.inc") for h in Path(folder).glob(pattern)}
     for path in sorted(sources) + sorted(headers):
         digest.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")
     target = Path(target_dir) / digest.hexdigest()[:20] / name
@@ -138,9 +148,20 @@ def run_compilers(commands: list[list[str]], what: str, cwd: Path | None = None)
         list(pool.map(run, commands))
 
 
+def core_files() -> list[str]:
+    """Every file of the core library, as paths relative to runtime/c: the public headers, each
+    layer's header and sources, the entry points (not the program's or the FMU's)."""
+    files = list(HEADERS)
+    for layer in LAYERS:
+        files += sorted(path.relative_to(SOURCE_DIR).as_posix()
+                        for path in (SOURCE_DIR / layer).iterdir()
+                        if path.suffix in (".c", ".h", ".inc"))
+    return files + [LIBRARY_SOURCE]
+
+
 def core_sources() -> list[Path]:
-    """The core's C files (everything in runtime/c but the program's main.c)."""
-    return sorted(p for p in SOURCE_DIR.glob("*.c") if p.name != PROGRAM_SOURCE)
+    """The core library's C files."""
+    return [SOURCE_DIR / name for name in core_files() if name.endswith(".c")]
 
 
 _FIRST_USE = threading.RLock()
@@ -165,7 +186,8 @@ def _once(function):
 @_once
 def core_library_path() -> Path:
     """The core library, built on first use (see the module docstring)."""
-    return build_shared_library(core_sources(), cache_root() / "core", CORE_LIBRARY)
+    return build_shared_library(core_sources(), cache_root() / "core", CORE_LIBRARY,
+                                include=(SOURCE_DIR / "include",))
 
 
 def _declarations(text: str) -> str:
@@ -192,4 +214,5 @@ def core():
 
 
 __all__ = ["CBuildError", "cache_root", "compiler", "build_shared_library", "run_compilers",
-           "core_sources", "core_library_path", "ffi", "core", "SOURCE_DIR", "CFLAGS"]
+           "core_files", "core_sources", "core_library_path", "ffi", "core", "SOURCE_DIR",
+           "CFLAGS", "LAYERS", "PROGRAM_SOURCE", "FMU_SOURCES", "CORE_FOLDER"]

@@ -31,7 +31,7 @@
 #include <string.h>
 
 #include "model.h"
-#include "runtime.h"
+#include "core/run/run.h"
 
 typedef struct parts {
     dep_arena arena;

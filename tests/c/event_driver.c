@@ -4,7 +4,7 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "depsim.h"
+#include "core/include/depsim.h"
 #include "model.h"
 
 static int hinge_angle(void *context, double t, const double *q, const double *qd,

@@ -31,16 +31,19 @@ def cc(*arguments, cwd):
 
 
 def sources(folder: Path) -> list[str]:
-    return sorted(p.name for p in folder.glob("*.c") if p.name != "main.c")
+    """The library's C files of a C target folder (its model*.c and core/), as relative paths."""
+    return sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*.c")
+                  if p.name != "main.c" and "build" not in p.relative_to(folder).parts)
 
 
 def test_emission_is_deterministic(example_builds, tmp_path):
     model = example_builds("slider_crank").model
     first = compile_c(model, tmp_path / "a")
     second = compile_c(model, tmp_path / "b")
-    for path in sorted(first.iterdir()):
+    for path in sorted(first.rglob("*")):
         if path.is_file():
-            assert path.read_bytes() == (second / path.name).read_bytes(), path.name
+            relative = path.relative_to(first)
+            assert path.read_bytes() == (second / relative).read_bytes(), relative
 
 
 def test_emission_does_not_depend_on_hash_seed(example_builds):
@@ -81,7 +84,8 @@ def test_long_functions_in_their_own_files_give_the_same_program(example_builds,
     assert "void model_phi_q(" not in (folder / "model.c").read_text()
     assert "const dep_model depsim_model" in (folder / "model.c").read_text()
     for name in own:
-        run = cc(*STRICT, "-c", name, "-o", tmp_path / f"{name}.o", cwd=folder)
+        run = cc(*STRICT, "-c", name, "-o", tmp_path / f"{name.replace('/', '_')}.o",
+                 cwd=folder)
         assert run.returncode == 0, f"{name}:\n{run.stderr}"
     made = subprocess.run(["make", "-j2", "-C", str(folder)], capture_output=True, text=True)
     assert made.returncode == 0, made.stdout + made.stderr
@@ -102,7 +106,8 @@ def test_long_functions_in_their_own_files_give_the_same_program(example_builds,
 def test_runtime_compiles_warning_free(example_builds, tmp_path):
     folder = example_builds("pendulum").folder
     for name in sources(folder) + ["main.c"]:
-        run = cc(*STRICT, "-c", name, "-o", tmp_path / f"{name}.o", cwd=folder)
+        run = cc(*STRICT, "-c", name, "-o", tmp_path / f"{name.replace('/', '_')}.o",
+                 cwd=folder)
         assert run.returncode == 0, f"{name}:\n{run.stderr}"
 
 

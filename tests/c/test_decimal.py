@@ -2,7 +2,7 @@
 C library's multiple-precision arithmetic. Checked against snprintf itself on a million
 doubles, and its table of powers of ten against Python's exact integers.
 
-Regenerate the table with:  python tests/c/test_decimal.py > runtime/c/decimal_powers.h
+Regenerate the table with:  python tests/c/test_decimal.py > runtime/c/base/decimal_powers.inc
 """
 import subprocess
 import sys
@@ -11,7 +11,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 HERE = Path(__file__).resolve().parent
 SOURCES = ROOT / "runtime" / "c"
-TABLE = SOURCES / "decimal_powers.h"
+TABLE = SOURCES / "base" / "decimal_powers.inc"
 LOWEST, HIGHEST = -292, 340  # 16 - k for the largest double (k = 308) and the smallest (-324)
 
 
@@ -31,7 +31,7 @@ def power(p: int) -> tuple[int, int]:
 
 
 def header_text() -> str:
-    lines = ["/* decimal_powers.h: 10^p = (high 2^64 + low) 2^exponent for p = DEP_POWERS_LOWEST ..",
+    lines = ["/* decimal_powers.inc: 10^p = (high 2^64 + low) 2^exponent for p = DEP_POWERS_LOWEST ..",
              " * DEP_POWERS_HIGHEST, high's top bit set, truncated from the exact value. Made and",
              " * checked by tests/c/test_decimal.py. */",
              "#define DEP_POWERS_LOWEST (%d)" % LOWEST,
@@ -57,8 +57,8 @@ def test_writes_every_double_as_snprintf_does(tmp_path):
 
     program = tmp_path / "decimal_check"
     subprocess.run([*compiler(), "-O2", "-std=c99", "-Wall", "-Wextra", "-Wpedantic", "-Werror",
-                    f"-I{SOURCES}", "-o", str(program), str(HERE / "decimal_check.c"),
-                    str(SOURCES / "decimal.c"), "-lm"], check=True)
+                    f"-I{SOURCES / 'include'}", "-o", str(program), str(HERE / "decimal_check.c"),
+                    str(SOURCES / "base" / "decimal.c"), "-lm"], check=True)
     done = subprocess.run([str(program), "1000000", "20261124"], capture_output=True, text=True,
                           check=True)
     last = done.stdout.splitlines()[-1].split()

@@ -71,7 +71,7 @@ def test_the_key_covers_the_core_sources_a_c_folder_carries(monkeypatch):
 
     def edited(path: Path) -> bytes:
         data = original(path)
-        return data + b"/* edited */\n" if path.name == "stepper.c" else data
+        return data + b"/* edited */\n" if path.name == "step.c" else data
 
     monkeypatch.setattr(Path, "read_bytes", edited)
     api._generator_digest.cache_clear()

@@ -61,9 +61,11 @@ def test_the_wheel_holds_every_package_and_the_core_sources(installed):
     for package in ("depsim", "depsim/dsl", "depsim/codegen", "depsim/runtime",
                     "depsim/runtime/sweep"):
         assert f"{package}/__init__.py" in names, package
-    for data in ("depsim/dsl/grammar.lark", "depsim/runtime/c/depsim.h",
-                 "depsim/runtime/c/depsim_model.h", "depsim/runtime/c/integrator.c",
-                 "depsim/runtime/c/main.c", "depsim/codegen/templates/numpy_module.py.j2"):
+    for data in ("depsim/dsl/grammar.lark", "depsim/runtime/c/include/depsim.h",
+                 "depsim/runtime/c/include/depsim_model.h", "depsim/runtime/c/run/run.c",
+                 "depsim/runtime/c/base/decimal_powers.inc",
+                 "depsim/runtime/c/targets/program/main.c",
+                 "depsim/codegen/templates/numpy_module.py.j2"):
         assert data in names, data
     assert not any(name.startswith(("tests/", "examples/")) for name in names)
 

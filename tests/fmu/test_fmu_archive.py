@@ -101,7 +101,7 @@ def test_archive_content(fmu_path):
     assert identifier == "intelsat5"
     assert {"modelDescription.xml", f"binaries/linux64/{identifier}.so",
             "sources/fmi2.c", "sources/fmi2.h", "sources/model.c", "sources/model.h",
-            "sources/depsim.h"} <= names
+            "sources/core/include/depsim.h", "sources/core/run/run.c"} <= names
     assert "sources/main.c" not in names
     (build,) = description.buildConfigurations  # fmpy reads FMI 2.0's SourceFiles so
     sources = build.sourceFileSets[0].sourceFiles

@@ -29,9 +29,9 @@ STRUCTS = {
 
 
 def test_the_model_header_is_rendered_from_the_interface_table():
-    text = (SOURCE_DIR / "depsim_model.h").read_text(encoding="utf-8")
+    text = (SOURCE_DIR / "include" / "depsim_model.h").read_text(encoding="utf-8")
     assert text == interface.render_header(), \
-        "run: python -m depsim.runtime.interface > runtime/c/depsim_model.h"
+        "run: python -m depsim.runtime.interface > runtime/c/include/depsim_model.h"
 
 
 def test_the_interface_lists_every_function_of_the_struct_in_order():
@@ -55,7 +55,7 @@ def test_cffi_reads_the_structs_as_the_compiler_lays_them_out(tmp_path):
     source = tmp_path / "layout.c"
     source.write_text("\n".join(lines) + "\n")
     program = tmp_path / "layout"
-    subprocess.run([*compiler(), "-std=c99", f"-I{SOURCE_DIR}", "-o", str(program),
+    subprocess.run([*compiler(), "-std=c99", f"-I{SOURCE_DIR / 'include'}", "-o", str(program),
                     str(source)], check=True)
     printed = subprocess.run([str(program)], capture_output=True, text=True, check=True).stdout
     assert [int(v) for v in printed.split()] == expected

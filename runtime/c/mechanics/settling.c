@@ -1,0 +1,137 @@
+/* settling.c: the state being settled at an event (mechanism.c, transitions.c): its constraint
+ * rows (the lock rows of latches, stops and stuck hinges), the event records it writes, and
+ * the multipliers of its rows at its state (mechanics.h).
+ */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "mechanics.h"
+
+int dep_settle_row_index(const settle_context *x, const char *name)
+{
+    for (int i = 0; i < x->n_rows; ++i) {
+        if (strcmp(x->rows[i].name, name) == 0) {
+            return i;
+        }
+    }
+    return -1;
+}
+
+void dep_settle_remove_row(settle_context *x, const dep_hinge_mechanics *h, const char *kind)
+{
+    char name[DEP_NAME_MAX + 16];
+    snprintf(name, sizeof name, "%s.%s", h->name, kind);
+    int i = dep_settle_row_index(x, name);
+    if (i >= 0) {
+        memmove(&x->rows[i], &x->rows[i + 1], (size_t)(x->n_rows - i - 1) * sizeof *x->rows);
+        x->n_rows--;
+    }
+}
+
+/* A lock row "<h>.<kind>" at `angle` (replacing one of that name in place, as a dict does). */
+const char *dep_settle_add_lock(settle_context *x, const dep_hinge_mechanics *h, double angle,
+                            const char *kind)
+{
+    char name[DEP_NAME_MAX + 16];
+    snprintf(name, sizeof name, "%s.%s", h->name, kind);
+    int i = dep_settle_row_index(x, name);
+    if (i < 0) {
+        i = x->n_rows < DEP_MAX_ADDED ? x->n_rows++ : DEP_MAX_ADDED - 1;
+    }
+    dep_added_row *r = &x->rows[i];
+    memset(r, 0, sizeof *r);
+    r->id = --x->new_ids;
+    r->kind = DEP_ROW_HINGE_LOCK;
+    r->hinge = h->index;
+    r->angle = angle;
+    dep_copy_text(r->name, sizeof r->name, name);
+    dep_copy_text(r->joint, sizeof r->joint, h->name);
+    x->added = 1;
+    return r->name;
+}
+
+/* The context's rows as a constraint set, without the rows named in skip[]. */
+dep_constraints *dep_settle_constraints(settle_context *x, char (*skip)[DEP_NAME_MAX], int n_skip)
+{
+    dep_added_row kept[DEP_MAX_ADDED];
+    int n = 0;
+    for (int i = 0; i < x->n_rows; ++i) {
+        int skipped = 0;
+        for (int k = 0; k < n_skip; ++k) {
+            skipped |= strcmp(x->rows[i].name, skip[k]) == 0;
+        }
+        if (!skipped) {
+            kept[n++] = x->rows[i];
+        }
+    }
+    dep_cs_assign(&x->cs, kept, n);
+    return &x->cs;
+}
+
+dep_event_record *dep_settle_record(settle_context *x, const dep_hinge_mechanics *h, const char *what)
+{
+    dep_event_record *r = &x->records[x->n_records < x->records_capacity ? x->n_records++
+                                                                          : x->n_records - 1];
+    snprintf(r->name, sizeof r->name, "%.*s.%s", DEP_NAME_MAX - 32, h->name, what);
+    r->n_data = 0;
+    dep_datum_text(r->data, &r->n_data, x->data_capacity, "hinge", h->name);
+    return r;
+}
+
+void dep_settle_put_number(settle_context *x, dep_event_record *r, const char *key, double value)
+{
+    dep_datum_number(r->data, &r->n_data, x->data_capacity, key, value);
+}
+
+void dep_settle_put_text(settle_context *x, dep_event_record *r, const char *key, const char *text)
+{
+    dep_datum_text(r->data, &r->n_data, x->data_capacity, key, text);
+}
+
+void dep_settle_put_kind(settle_context *x, dep_event_record *r, const char *key, int kind, double v)
+{
+    dep_datum *d = dep_datum_add(r->data, &r->n_data, x->data_capacity, key, "");
+    if (d != NULL) {
+        d->kind = kind;
+        d->number = v;
+    }
+}
+
+/* {row name: lambda} at the context's state and modes (acceleration pass from zero). */
+int dep_settle_multipliers(settle_context *x)
+{
+    dep_constraints *cs = dep_settle_constraints(x, NULL, 0);
+    dep_pass_report report;
+    dep_cs_jacobian(cs, x->q, x->t, x->scratch);
+    memset(x->lam, 0, (size_t)cs->nc * sizeof *x->lam);
+    x->view.nc = cs->nc;
+    x->view.names = cs->row_names;
+    x->view.lam = x->lam;
+    return dep_acceleration_pass(&x->accel, x->q, x->qd, x->t, x->scratch, ++x->jacobian_ids,
+                                 x->lam, NULL, x->m->tol, &report, &x->failure);
+}
+
+int dep_settle_multiplier_of(settle_context *x, const dep_hinge_mechanics *h, const char *kind,
+                         double *value)
+{
+    char name[DEP_NAME_MAX + 16];
+    int status = dep_settle_multipliers(x);
+    snprintf(name, sizeof name, "%s.%s", h->name, kind);
+    *value = status == DEP_OK ? x->lam[dep_cs_index(&x->cs, name)] : NAN;
+    return status;
+}
+
+/* The mode of hinge h's event `kind` starts on its boundary (g = 0): not re-checked here. */
+void dep_settle_starting(settle_context *x, const dep_hinge_mechanics *h, int kind)
+{
+    int e = dep_mechanism_event_index(x->m, h, kind);
+    if (e >= 0) {
+        x->starting[e] = 1;
+    }
+}
+
+double dep_settle_slip_direction(double lam, double previous)
+{
+    return lam == 0.0 ? previous : lam > 0 ? 1.0 : -1.0;
+}

@@ -1,0 +1,314 @@
+/* transitions.c: the mode changes of latches, stops and stick-slip hinges, the plastic impact
+ * of the rows that engage and the final projection (docs/deployment.md, sections 1-4);
+ * settle.c drives them.
+ *
+ * A rigid latch or a stop that engages causes a plastic impact: sticking hinges let go during
+ * it (a finite friction torque transmits no impulse) and afterwards slip in the direction of
+ * their new rate, or are tested for stick at rest.
+ */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "mechanics.h"
+
+#define REST 1e3 /* a hinge rate below REST tol max(1, max|qd|) counts as at rest */
+
+/* ---- the transitions ---------------------------------------------------------------------- */
+
+/* open -> latched (rigid: lock row, impact) or contact (compliant); contact <-> apart. */
+static int latch(settle_context *x, dep_hinge_mechanics *h, int kind, int *follow, int *n_follow)
+{
+    double rate = dep_mechanism_rate(x->m, h, x->q, x->qd);
+    (void)kind, (void)follow, (void)n_follow;
+    if (h->latch_state == DEP_OPEN) {
+        dep_event_record *r = dep_settle_record(x, h, "latch");
+        dep_settle_put_number(x, r, "angle", h->latch);
+        dep_settle_put_number(x, r, "rate", rate);
+        dep_settle_put_kind(x, r, "rigid", DEP_BOOL, !h->compliant);
+        if (h->compliant) {
+            h->latch_state = DEP_CONTACT;
+            dep_settle_starting(x, h, DEP_KIND_LATCH);
+            dep_settle_put_kind(x, r, "impulse", DEP_NONE, 0.0);
+            dep_settle_put_kind(x, r, "impact_energy_loss", DEP_NONE, 0.0);
+            return DEP_OK;
+        }
+        dep_settle_remove_row(x, h, "stick");
+        dep_settle_remove_row(x, h, "stop");
+        h->stuck = 0;
+        h->stop = DEP_STOP_NONE;
+        h->latch_state = DEP_LATCHED;
+        dep_copy_text(x->impacting_rows[x->n_impacting], DEP_NAME_MAX,
+                      dep_settle_add_lock(x, h, h->latch, "latch"));
+        x->impacting[x->n_impacting++] = (int)(r - x->records);
+    } else if (h->latch_state == DEP_CONTACT || h->latch_state == DEP_APART) {
+        h->latch_state = h->latch_state == DEP_CONTACT ? DEP_APART : DEP_CONTACT;
+        dep_settle_starting(x, h, DEP_KIND_LATCH);
+        dep_event_record *r = dep_settle_record(x, h, h->latch_state == DEP_APART ? "latch.separation"
+                                                                        : "latch.contact");
+        dep_settle_put_number(x, r, "rate", rate);
+    }
+    return DEP_OK;
+}
+
+/* free -> at the stop (lock row, impact); at the stop -> free, then a stick-or-slip test. */
+static int stop(settle_context *x, dep_hinge_mechanics *h, int kind, int *follow, int *n_follow)
+{
+    int at = kind == DEP_KIND_STOP_MAX ? DEP_STOP_MAX : DEP_STOP_MIN;
+    const char *limit = at == DEP_STOP_MAX ? "max" : "min";
+    double angle = at == DEP_STOP_MAX ? h->stop_max : h->stop_min;
+    if (h->stop == at) {
+        dep_settle_remove_row(x, h, "stop");
+        h->stop = DEP_STOP_NONE;
+        dep_settle_starting(x, h, kind);
+        dep_event_record *r = dep_settle_record(x, h, "stop");
+        dep_settle_put_text(x, r, "limit", limit);
+        dep_settle_put_number(x, r, "angle", angle);
+        dep_settle_put_text(x, r, "action", "release");
+        if (h->has_static) {
+            h->stuck = 0;
+            follow[(*n_follow)++] = DEP_KIND_STICK;
+        }
+        return DEP_OK;
+    }
+    dep_settle_remove_row(x, h, "stick");
+    h->stuck = 0;
+    h->stop = at;
+    dep_copy_text(x->impacting_rows[x->n_impacting], DEP_NAME_MAX, dep_settle_add_lock(x, h, angle, "stop"));
+    dep_event_record *r = dep_settle_record(x, h, "stop");
+    dep_settle_put_text(x, r, "limit", limit);
+    dep_settle_put_number(x, r, "angle", angle);
+    dep_settle_put_text(x, r, "action", "contact");
+    dep_settle_put_number(x, r, "rate", dep_mechanism_rate(x->m, h, x->q, x->qd));
+    x->impacting[x->n_impacting++] = (int)(r - x->records);
+    return DEP_OK;
+}
+
+static void slip(settle_context *x, dep_hinge_mechanics *h, double lam)
+{
+    dep_settle_remove_row(x, h, "stick");
+    h->stuck = 0;
+    h->direction = dep_settle_slip_direction(lam, h->direction);
+    dep_settle_starting(x, h, DEP_KIND_STICK);
+    dep_event_record *r = dep_settle_record(x, h, "slip");
+    dep_settle_put_number(x, r, "direction", h->direction);
+    dep_settle_put_number(x, r, "torque", -lam);
+}
+
+/* stuck -> slip (holding torque reached static friction); slipping at rest -> the
+   stick-or-slip test with a trial lock row at the current angle (a hinge that still moves
+   only takes the direction of its rate). */
+static int stick(settle_context *x, dep_hinge_mechanics *h, int kind, int *follow, int *n_follow)
+{
+    double lam;
+    (void)kind, (void)follow, (void)n_follow;
+    if (h->latch_state == DEP_LATCHED || h->stop != DEP_STOP_NONE) {
+        return DEP_OK;
+    }
+    if (h->stuck) {
+        int status = dep_settle_multiplier_of(x, h, "stick", &lam);
+        if (status == DEP_OK) {
+            slip(x, h, lam);
+        }
+        return status;
+    }
+    double rate = dep_mechanism_rate(x->m, h, x->q, x->qd);
+    if (fabs(rate) > REST * x->m->tol * fmax(1.0, dep_max_abs(x->qd, x->nq))) {
+        /* not at rest (its rate changed sign in a jump): it slips the way it moves */
+        h->direction = rate > 0 ? 1.0 : -1.0;
+        dep_event_record *r = dep_settle_record(x, h, "slip");
+        dep_settle_put_number(x, r, "direction", h->direction);
+        return DEP_OK;
+    }
+    double theta = dep_mechanism_angle(x->m, h, x->q);
+    dep_settle_add_lock(x, h, theta, "stick");
+    h->stuck = 1; /* the trial: friction is carried by the lock row's multiplier */
+    int status = dep_settle_multiplier_of(x, h, "stick", &lam);
+    if (status != DEP_OK) {
+        return status;
+    }
+    if (fabs(lam) <= h->static_friction) {
+        dep_event_record *r = dep_settle_record(x, h, "stick");
+        dep_settle_put_number(x, r, "angle", theta);
+        dep_settle_put_number(x, r, "torque", -lam);
+        return DEP_OK;
+    }
+    slip(x, h, lam);
+    return DEP_OK;
+}
+
+/* ---- the impact and the final projection -------------------------------------------------- */
+
+static int is_stuck(const dep_hinge_mechanics *h)
+{
+    return h->stuck && h->latch_state != DEP_LATCHED && h->stop == DEP_STOP_NONE;
+}
+
+/* Impulses, energy and joint impulses into the records of the rows that just engaged. */
+static void impact_records(settle_context *x, const dep_constraints *cs, double loss)
+{
+    const dep_model *model = x->system->model;
+    for (int i = 0; i < x->n_impacting; ++i) {
+        dep_event_record *r = &x->records[x->impacting[i]];
+        int row = dep_cs_index(cs, x->impacting_rows[i]);
+        dep_settle_put_number(x, r, "impulse", -(row >= 0 ? x->mu[row] : 0.0));
+        dep_settle_put_number(x, r, "impact_energy_loss", i == 0 ? loss : 0.0);
+        for (int k = 0; k < model->nh; ++k) {
+            char name[DEP_NAME_MAX + 8];
+            snprintf(name, sizeof name, "%s.x", model->hinge_names[k]);
+            int ix = dep_cs_index(cs, name);
+            snprintf(name, sizeof name, "%s.y", model->hinge_names[k]);
+            int iy = dep_cs_index(cs, name);
+            dep_datum *d = dep_datum_add(r->data, &r->n_data, x->data_capacity,
+                                         "joint_impulses", model->hinge_names[k]);
+            if (d != NULL) {
+                d->kind = DEP_NUMBER;
+                d->number = hypot(ix >= 0 ? x->mu[ix] : 0.0, iy >= 0 ? x->mu[iy] : 0.0);
+            }
+        }
+    }
+    x->n_impacting = 0;
+}
+
+/* The stops whose impulse would have pulled, released by the impact. */
+static void release_stops(settle_context *x, int n_released)
+{
+    dep_mechanism *m = x->m;
+    for (int k = 0; k < n_released; ++k) {
+        for (int i = 0; i < m->n_hinges; ++i) {
+            dep_hinge_mechanics *h = &m->hinges[i];
+            char name[DEP_NAME_MAX + 8];
+            snprintf(name, sizeof name, "%s.stop", h->name);
+            if (h->stop != DEP_STOP_NONE && strcmp(name, x->released[k]) == 0) {
+                dep_settle_remove_row(x, h, "stop");
+                dep_event_record *r = dep_settle_record(x, h, "stop");
+                dep_settle_put_text(x, r, "limit", h->stop == DEP_STOP_MAX ? "max" : "min");
+                dep_settle_put_text(x, r, "action", "release");
+                dep_settle_put_text(x, r, "cause", "impact");
+                h->stop = DEP_STOP_NONE;
+            }
+        }
+    }
+}
+
+/* After the impact every stick-slip hinge that is neither latched nor at a stop is classified
+   again from its new rate: the hinges that stuck before it (rows skip[], released for the
+   impact) and the slipping ones alike. Moving, it slips in the direction of its rate (a
+   "slip" record when that is a change); at rest it is due for the stick-or-slip test
+   (follow[]: hinge * 4 + kind). */
+static void reclassify(settle_context *x, char (*skip)[DEP_NAME_MAX], int n_skip, int *follow,
+                       int *n_follow)
+{
+    dep_mechanism *m = x->m;
+    double at_rest = REST * m->tol * fmax(1.0, dep_max_abs(x->qd, x->nq));
+    for (int i = 0; i < m->n_hinges; ++i) {
+        dep_hinge_mechanics *h = &m->hinges[i];
+        if (!h->has_static || h->latch_state == DEP_LATCHED || h->stop != DEP_STOP_NONE) {
+            continue;
+        }
+        char name[DEP_NAME_MAX + 8];
+        snprintf(name, sizeof name, "%s.stick", h->name);
+        int was_stuck = 0;
+        for (int k = 0; k < n_skip && !was_stuck; ++k) {
+            was_stuck = strcmp(name, skip[k]) == 0;
+        }
+        if (h->stuck && !was_stuck) {
+            continue; /* stuck by a row that took part in the impact: still at rest */
+        }
+        if (was_stuck) {
+            dep_settle_remove_row(x, h, "stick");
+            h->stuck = 0;
+        }
+        double rate = dep_mechanism_rate(m, h, x->q, x->qd);
+        if (fabs(rate) <= at_rest) {
+            follow[(*n_follow)++] = i * 4 + DEP_KIND_STICK;
+            continue;
+        }
+        double direction = rate > 0 ? 1.0 : -1.0;
+        if (was_stuck || direction != h->direction) {
+            h->direction = direction;
+            dep_event_record *r = dep_settle_record(x, h, "slip");
+            dep_settle_put_number(x, r, "direction", h->direction);
+            dep_settle_put_text(x, r, "cause", "impact");
+        }
+    }
+}
+
+/* The plastic impact of the rows that just engaged; appends the rest tests it makes due. */
+int dep_settle_impact(settle_context *x, int *follow, int *n_follow)
+{
+    dep_mechanism *m = x->m;
+    char skip[DEP_MAX_ADDED][DEP_NAME_MAX];
+    int n_skip = 0, n_unilateral = 0, n_released = 0;
+    for (int i = 0; i < m->n_hinges; ++i) {
+        dep_hinge_mechanics *h = &m->hinges[i];
+        if (is_stuck(h) && n_skip < DEP_MAX_ADDED) {
+            snprintf(skip[n_skip++], DEP_NAME_MAX, "%.*s.stick", DEP_NAME_MAX - 8, h->name);
+        }
+        if (h->stop != DEP_STOP_NONE) {
+            snprintf(x->unilateral[n_unilateral], DEP_NAME_MAX, "%.*s.stop", DEP_NAME_MAX - 8,
+                     h->name);
+            x->signs[n_unilateral++] = h->stop == DEP_STOP_MAX ? 1.0 : -1.0;
+        }
+    }
+    dep_constraints *cs = dep_settle_constraints(x, skip, n_skip);
+    dep_measurement *slots[2] = {&x->slots[2], &x->slots[3]};
+    int status = dep_plastic_impact(cs, &x->mp, slots, x->q, x->qd, x->qd_new, x->t, m->tol,
+                                    (const char (*)[DEP_NAME_MAX])x->unilateral, x->signs,
+                                    n_unilateral, x->scratch, &x->jacobian_ids, x->mu,
+                                    x->released, &n_released, &x->failure);
+    if (status != DEP_OK) {
+        return status;
+    }
+    double loss = dep_energy_loss(&x->system->mass, x->qd, x->qd_new);
+    memcpy(x->qd, x->qd_new, (size_t)x->nq * sizeof *x->qd);
+    impact_records(x, cs, loss);
+    release_stops(x, n_released);
+    reclassify(x, skip, n_skip, follow, n_follow);
+    return DEP_OK;
+}
+
+/* q and qd moved M-orthogonally onto every constraint level (moves of the order of the
+   located event's error; the kinetic energy removed is that small too and not recorded). */
+int dep_settle_project(settle_context *x)
+{
+    dep_constraints *cs = dep_settle_constraints(x, NULL, 0);
+    dep_measurement *own[2] = {&x->slots[0], &x->slots[1]}, *plain[2] = {&x->slots[2],
+                                                                          &x->slots[3]};
+    int status = dep_project_positions(cs, &x->mp, own, x->q, x->t, x->m->tol, x->scratch,
+                                       &x->jacobian_ids, &x->failure);
+    if (status != DEP_OK) {
+        return status;
+    }
+    return dep_project_velocities(cs, &x->mp, plain, x->q, x->qd, x->t, x->m->tol, x->scratch,
+                                  &x->jacobian_ids, x->mu, &x->failure);
+}
+
+typedef int (*transition_function)(settle_context *, dep_hinge_mechanics *, int, int *, int *);
+
+/* Apply event e's transition; append the events it makes due to the queue. */
+int dep_settle_transition(settle_context *x, int e, int *queue, int *n_queue)
+{
+    static const transition_function TRANSITIONS[4] = {latch, stop, stop, stick};
+    dep_mechanism *m = x->m;
+    dep_hinge_mechanics *h = m->info[e].hinge;
+    int follow[DEP_MAX_ADDED + 4], n_follow = 0;
+    int status = TRANSITIONS[m->info[e].kind](x, h, m->info[e].kind, follow, &n_follow);
+    for (int k = 0; k < n_follow; ++k) { /* a kind of this hinge */
+        follow[k] = dep_mechanism_event_index(m, h, follow[k]);
+    }
+    if (status == DEP_OK && x->n_impacting > 0) {
+        int more[DEP_MAX_ADDED], n_more = 0;
+        status = dep_settle_impact(x, more, &n_more);
+        for (int k = 0; k < n_more; ++k) {
+            follow[n_follow++] = dep_mechanism_event_index(m, &m->hinges[more[k] / 4], more[k] % 4);
+        }
+    }
+    for (int k = 0; k < n_follow && *n_queue < x->queue_capacity; ++k) {
+        if (follow[k] >= 0) {
+            queue[(*n_queue)++] = follow[k];
+        }
+    }
+    return status;
+}
+

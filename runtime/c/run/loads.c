@@ -1,0 +1,77 @@
+/* loads.c: hinge reaction loads from the multipliers, and their running peaks at the
+ * accepted steps (summary.c merges them with the output times').
+ *
+ * A hinge's rows "<h>.x", "<h>.y" = r_a - r_b give the force on member b from member a,
+ * F_h = (lambda_x, lambda_y) (N, world frame); a lock row "<h>.latch", "<h>.stop",
+ * "<h>.stick" or "<h>.lock" gives the torque T_h = -lambda (N m, on member b).
+ */
+#include <math.h>
+#include <string.h>
+
+#include "run.h"
+
+
+/* The position of "<hinge>.<suffix>" among the model's constraint rows, or -1. */
+static int model_row(const dep_model *model, const char *hinge, const char *suffix)
+{
+    size_t length = strlen(hinge);
+    for (int i = 0; i < model->nc; ++i) {
+        const char *name = model->constraint_names[i];
+        if (strncmp(name, hinge, length) == 0 && name[length] == '.'
+            && strcmp(name + length + 1, suffix) == 0) {
+            return i;
+        }
+    }
+    return -1;
+}
+
+int dep_loads_init(dep_loads *loads, const dep_model *model, dep_arena *arena)
+{
+    size_t nh = (size_t)model->nh;
+    memset(loads, 0, sizeof *loads);
+    loads->model = model;
+    loads->nh = model->nh;
+    loads->force = dep_doubles(arena, nh);
+    loads->t_force = dep_doubles(arena, nh);
+    loads->torque = dep_doubles(arena, nh);
+    loads->t_torque = dep_doubles(arena, nh);
+    loads->forces = dep_doubles(arena, 2 * nh);
+    loads->torques = dep_doubles(arena, nh);
+    loads->rows = dep_bytes(arena, (2 * nh + 1) * sizeof *loads->rows);
+    if (arena->failed) {
+        return DEP_MEMORY_ERROR;
+    }
+    for (size_t k = 0; k < nh; ++k) {
+        loads->t_force[k] = loads->t_torque[k] = NAN;
+        loads->rows[2 * k] = model_row(model, model->hinge_names[k], "x");
+        loads->rows[2 * k + 1] = model_row(model, model->hinge_names[k], "y");
+    }
+    return DEP_OK;
+}
+
+/* (F_x, F_y) of each hinge (2 nh) from its rows "<h>.x", "<h>.y" (the model's), NAN where
+   it has none. */
+void dep_hinge_forces(const dep_loads *loads, const double *lam, double *forces)
+{
+    for (int k = 0; k < loads->nh; ++k) {
+        int ix = loads->rows[2 * k], iy = loads->rows[2 * k + 1];
+        forces[2 * k] = ix >= 0 && iy >= 0 ? lam[ix] : NAN;
+        forces[2 * k + 1] = ix >= 0 && iy >= 0 ? lam[iy] : NAN;
+    }
+}
+
+/* PeakTracker.observe: |F_h| and |T_h| at time t; NAN entries are skipped. */
+void dep_loads_observe(dep_loads *loads, double t, const double *forces, const double *torques)
+{
+    for (int k = 0; k < loads->nh; ++k) {
+        double magnitude = hypot(forces[2 * k], forces[2 * k + 1]), size = fabs(torques[k]);
+        if (isfinite(magnitude) && magnitude > loads->force[k]) {
+            loads->force[k] = magnitude;
+            loads->t_force[k] = t;
+        }
+        if (isfinite(size) && size > loads->torque[k]) {
+            loads->torque[k] = size;
+            loads->t_torque[k] = t;
+        }
+    }
+}

@@ -1,0 +1,197 @@
+/* run.h: one run of a model (runtime/c/README.md): the struct dep_run and its methods, from
+ * its settings to its result. A run takes the method's steps (method.h) with the mechanism's
+ * modes (mechanics.h), locates events on the dense output, applies what they change, and
+ * records the outputs, the hinge loads, the event records and the deployment summary.
+ *
+ *   settings.c   the checks of a run's settings and input tables
+ *   tally.c      work and accuracy counters
+ *   loads.c      hinge forces and lock torques from the multipliers; their peaks
+ *   recording.c  outputs at the requested times; the result
+ *   summary.c    the deployment, the peak loads and the summary text of a result
+ *   state.c      a run's state: restarts, pass errors, records, loads observed, outputs due
+ *   changes.c    applying an event's change (rows, state, impact)
+ *   assembly.c   the initial state of closed loops from the given values
+ *   steps.c      accepted steps: the step's errors, its size, the step budget
+ *   firing.c     events: located, the step re-taken to them, fired
+ *   inputs.c     inputs: time tables piece by piece, values set from outside
+ *   run.c        a run set up, begun, advanced, finished and freed
+ */
+#ifndef DEPSIM_RUN_H
+#define DEPSIM_RUN_H
+
+#include "../mechanics/mechanics.h"
+
+/* ---- settings.c -------------------------------------------------------------------------- */
+
+/* resolve_settings: ValueError (DEP_SETTINGS_ERROR) for a bad value, SolverError for tol below
+   round-off. open: dep_open's settings (t_end may be INFINITY; dt_out and tables unused). */
+int dep_check_settings(const dep_model *model, const double *p, const dep_settings *settings,
+                       int open, dep_error *error);
+
+/* ---- loads.c: hinge forces and lock torques from the multipliers; their peaks -------------- */
+
+typedef struct dep_loads {
+    const dep_model *model;
+    int nh;
+    double *force, *t_force, *torque, *t_torque; /* nh: the running peaks */
+    double *forces, *torques;                     /* 2 nh, nh scratch */
+    int *rows;                                    /* 2 nh: each hinge's rows x, y, or -1 */
+} dep_loads;
+
+int dep_loads_init(dep_loads *loads, const dep_model *model, dep_arena *arena);
+void dep_hinge_forces(const dep_loads *loads, const double *lam, double *forces);
+void dep_loads_observe(dep_loads *loads, double t, const double *forces, const double *torques);
+
+/* ---- recording.c: outputs at the requested times; the Result --------------------------- */
+
+typedef struct dep_recorder {
+    const dep_system *system;
+    int n_times, next_index, rows, capacity;
+    int outputs_only; /* dep_settings.rows == DEP_ROWS_OUTPUTS */
+    double *times;
+    double *t, *q, *qd, *hinge_angles, *hinge_rates, *outputs, *residuals, *energy, *work;
+    double *torque;
+    dep_mechanism *mechanism; /* the hinges' lock torques; NULL: the lock rows' alone */
+    int n_names, names_capacity;
+    char **names;
+    int *lam_start;            /* rows + 1 */
+    int *lam_ids;              /* name index per recorded multiplier */
+    double *lam_values;
+    int lam_count, lam_capacity;
+    double *f, *J, *qdd, *v;   /* scratch */
+    dep_arena *arena;
+} dep_recorder;
+
+double dep_max_output_times(const dep_system *system);
+int dep_recorder_init(dep_recorder *rec, const dep_system *system, dep_mechanism *mechanism,
+                      const dep_settings *settings, int capacity, dep_arena *arena);
+int dep_recorder_pending(dep_recorder *rec, double t_until, int *first);
+int dep_record(dep_recorder *rec, double t, const double *q, const double *qd, const double *lam,
+               const double *work, dep_constraints *cs);
+double dep_recorder_last_time(const dep_recorder *rec);
+int dep_recorder_result(dep_recorder *rec, dep_result *result);
+
+/* ---- summary.c: the deployment, the peak loads and the summary text of a result --------- */
+
+int dep_summarize(const dep_model *model, const dep_system *system, const dep_loads *loads,
+                  dep_result *result);
+
+/* ---- tally.c: work and accuracy counters ----------------------------------------------- */
+
+typedef struct dep_tally {
+    long long accepted, rejected, failed, events, cg_iterations;
+    long long totals[3], maxima[3];
+    double residuals[3];
+    double min_step, max_step;
+} dep_tally;
+
+void dep_tally_init(dep_tally *tally);
+void dep_tally_accept(dep_tally *tally, const dep_pass_report reports[3], double h);
+void dep_tally_observe(dep_tally *tally, const dep_pass_report *report);
+dep_stats dep_tally_stats(const dep_tally *tally, long long integrations,
+                          long long rhs_evaluations);
+
+/* ---- the run ------------------------------------------------------------------------------ */
+
+/* The multipliers' profile under the linearly implicit step: a quadratic. The multipliers
+   carry the reactions of the stiff modes that step damps; a cubic's error estimate, a fourth
+   divided difference, amplifies them and holds the step (two_link_flex at 16 elements: 198,500
+   steps with a cubic, 116,200 with a quadratic at the same tol, every output within the
+   issue's accuracy; a linear profile takes 21,300 but misses the low-passed tip by 3e-5 m). */
+#define DEP_IMPLICIT_PROFILE_NODES 2
+
+/* The accepted point before run->state (for the velocity interpolant, dopri.c); valid is 0
+   after a start or an event. */
+typedef struct dep_prior {
+    int valid;
+    double t;
+    double *qd, *qdd;
+} dep_prior;
+
+struct dep_run { /* typedef in depsim.h */
+    const dep_model *model;
+    dep_settings settings;
+    dep_error *error;
+    dep_arena arena;
+    dep_system system;
+    dep_mechanism *mechanism;  /* NULL: no latch, stop or stick-slip (or mechanics off) */
+    dep_constraints cs;
+    dep_stepper stepper;
+    dep_recorder recorder;
+    dep_watch watch;
+    int n_user_events;
+    dep_tally tally;
+    dep_history history;
+    dep_history friction;      /* the hinges' friction torques at the same points (nh) */
+    double *friction_predicted, *friction_table, *friction_d; /* scratch */
+    int friction_steps;   /* accepted steps in a row held by friction's damping (step_budget) */
+    dep_prior prior;
+    dep_loads loads;
+    dep_state state;
+    dep_outcome outcome, fired;
+    dep_change change;
+    dep_event_response *response;
+    dep_row *response_rows; /* DEP_MAX_ADDED: the added rows a callback sees */
+    double h_min, h_cap;
+    int nq, nd, ny;
+    double *p_spare; /* np: the other parameter buffer (inputs changing, take_parameters) */
+    double *p, *scratch, *y, *dy, *q, *qd, *lam, *work, *predicted, *mass_qd;
+    double *dense_J, *dense_lam;
+    double *tangent, *normal; /* ny, 2 capacity + 2 nq: the step error's tangential part */
+    double err_previous;      /* the last accepted step's error (the PI step control) */
+    int stiff_steps, free_steps, grind_steps; /* step_budget's counts */
+    double implicit_from, stiff_rate; /* when the linearly implicit step took over, and why */
+    double omega_max;                 /* the stiff forces' fastest mode (rad/s), 0: unknown */
+    int bound_steps;                  /* accepted steps in a row with h omega_max > bound */
+    int profile_nodes;                /* the multipliers' profile's most nodes (its degree) */
+    dep_active_rows state_rows, dense_rows;
+    dep_event_record *records;
+    int n_records, records_capacity;
+    double t_stop;   /* the end of the current dep_advance: no step passes it */
+    double h_next;   /* the step size to try next; 0: none yet (first_step) */
+    int recording;   /* 1: outputs at the output times (dep_simulate); 0: dep_open's runs */
+    int stopped;     /* a terminal event ended the run */
+};
+
+
+/* ---- the methods of a run ------------------------------------------------------------------ */
+
+/* run.c: a new run of `model` with these settings: checked, its system, events and (when
+   `recording`) its recorder set up. NULL with `error` filled on failure. */
+dep_run *dep_run_new(const dep_model *model, const double *params, const dep_settings *settings,
+                     const dep_event *events, int n_events, int recording, dep_error *error);
+void dep_run_free(dep_run *run);                     /* NULL is fine */
+int dep_run_begin(dep_run *run);     /* the assembled initial state at t = 0, its modes, lambda_0 */
+int dep_run_until(dep_run *run, double t);           /* steps to t (or a stopping event) */
+int dep_run_integrate(dep_run *run); /* dep_simulate's run: to t_end, piece by piece of tables */
+int dep_run_finish(dep_run *run, dep_result *result); /* the result of a finished run */
+
+/* state.c */
+int dep_run_pass_error(dep_run *run, const dep_failure *failure, double t);
+int dep_run_restart(dep_run *run, double t, const double *q, const double *qd,
+                    const double *work, const char *stage);
+int dep_run_record_until(dep_run *run, double t_until, const dep_outcome *end);
+const dep_active_rows *dep_run_rows(dep_run *run, const dep_state *state);
+void dep_run_observe_loads(dep_run *run, const dep_state *s);
+int dep_run_add_record(dep_run *run, const char *name, double t, const dep_datum *data, int n);
+int dep_run_log_event(dep_run *run, const char *name, double t, const dep_change *change);
+/* changes.c */
+int dep_run_apply_change(dep_run *run, dep_change *change, const dep_state *here);
+/* assembly.c */
+int dep_run_assemble(dep_run *run, double *q, double *qd);
+/* steps.c */
+double dep_run_first_step(dep_run *run);
+int dep_run_step(dep_run *run, double h, dep_outcome *outcome, dep_failure *failure);
+int dep_run_advance(dep_run *run, double *h); /* one accepted step; *h: in tried, out next */
+void dep_run_attach_prior(const dep_run *run, dep_outcome *end);
+/* firing.c */
+int dep_run_start(dep_run *run, const double *q0, const double *qd0);
+int dep_run_after_step(dep_run *run, int *stop);
+/* inputs.c */
+void dep_run_start_tables(dep_run *run);              /* the tables' values at t = 0 */
+double dep_run_next_break(const dep_run *run, double t); /* where a table's piece ends */
+int dep_run_apply_tables(dep_run *run);               /* the tables' pieces from now on */
+int dep_run_set_inputs(dep_run *run, const double *values, const double *rates,
+                       dep_error *error);
+
+#endif /* DEPSIM_RUN_H */

@@ -1,0 +1,150 @@
+/* system.c: the model bound to one parameter vector for a run: its mass matrix (mass.c), its
+ * hinges (hinges.c), the names of its energies and dissipators, and the forces, powers and
+ * energies the method sees: the generated model's plus the hinge torques of laws.c (system.h).
+ */
+#include <stdio.h>
+#include <string.h>
+
+#include "system.h"
+
+/* The dissipator and energy names: the model's, then "friction.<h>", then "latch.<h>". */
+static int name_terms(dep_system *s, dep_arena *arena)
+{
+    const dep_model *model = s->model;
+    int d = 0, e = 0;
+    s->nd = model->nd + s->n_friction + s->n_compliant;
+    s->ne = model->ne + s->n_compliant;
+    s->dissipator_names = dep_bytes(arena, (size_t)(s->nd ? s->nd : 1) * sizeof(char *));
+    s->energy_names = dep_bytes(arena, (size_t)(s->ne ? s->ne : 1) * sizeof(char *));
+    if (arena->failed) {
+        return DEP_MEMORY_ERROR;
+    }
+    for (; d < model->nd; ++d) {
+        s->dissipator_names[d] = model->dissipator_names[d];
+    }
+    for (; e < model->ne; ++e) {
+        s->energy_names[e] = model->energy_names[e];
+    }
+    for (int pass = 0; pass < 2; ++pass) { /* friction first, then compliant latches */
+        for (int i = 0; i < s->nh; ++i) {
+            const dep_hinge_mechanics *h = &s->hinges[i];
+            if (pass == 0 ? !h->has_friction : !h->compliant) {
+                continue;
+            }
+            char *name = dep_bytes(arena, strlen(h->name) + 10);
+            if (name == NULL) {
+                return DEP_MEMORY_ERROR;
+            }
+            sprintf(name, "%s.%s", pass == 0 ? "friction" : "latch", h->name);
+            s->dissipator_names[d++] = name;
+            if (pass == 1) {
+                s->energy_names[e++] = name;
+            }
+        }
+    }
+    return DEP_OK;
+}
+
+int dep_system_init(dep_system *system, const dep_model *model, const double *p,
+                    int mechanics, dep_arena *arena, dep_error *error)
+{
+    int nh = model->nh, status;
+    memset(system, 0, sizeof *system);
+    system->model = model;
+    system->p = p;
+    system->nq = model->nq;
+    system->nh = nh;
+    system->mass.n = model->nq;
+    system->mass.nnz = model->nmz;
+    system->mass.rows = model->mass_rows;
+    system->mass.cols = model->mass_cols;
+    system->mass.values = dep_doubles(arena, (size_t)model->nmz + 1);
+    system->mass.entry_diagonal = dep_doubles(arena, (size_t)model->nq + 1);
+    system->angles = dep_doubles(arena, (size_t)nh);
+    system->rates = dep_doubles(arena, (size_t)nh);
+    system->tau = dep_doubles(arena, (size_t)nh);
+    system->friction = dep_doubles(arena, (size_t)nh);
+    system->hinge_jacobian = dep_doubles(arena, (size_t)model->nhnz + 1);
+    system->torque_force = dep_doubles(arena, (size_t)model->nq + 1);
+    if (arena->failed) {
+        return dep_plain_error(error, DEP_MEMORY_ERROR, "out of memory");
+    }
+    if ((status = dep_hinges_read(system, mechanics, arena, error)) != DEP_OK) {
+        return status;
+    }
+    if (name_terms(system, arena) != DEP_OK) {
+        return dep_plain_error(error, DEP_MEMORY_ERROR, "out of memory");
+    }
+    model->mass_matrix(p, system->mass.values);
+    return dep_mass_factor(&system->mass, model->coordinate_names, arena, error);
+}
+
+/* ---- the forces, powers and energies of a run -------------------------------------------- */
+
+/* out (nq) = J_h^T tau, J_h the hinge Jacobian's non-zeros (model->hinge_jacobian). */
+void dep_hinge_transpose_times(const dep_system *system, const double *J_h, const double *tau,
+                               double *out)
+{
+    const dep_model *model = system->model;
+    memset(out, 0, (size_t)system->nq * sizeof *out);
+    for (int k = 0; k < model->nhnz; ++k) {
+        out[model->hinge_jacobian_cols[k]] += J_h[k] * tau[model->hinge_jacobian_rows[k]];
+    }
+}
+
+/* f (nq): the model's force plus J_h^T tau of the hinge torques (mechanism.c), the friction
+   torques given (nh) or, with NULL, by the law. */
+static void force(const dep_system *system, const double *q, const double *qd, double t,
+                  const double *friction, double *f)
+{
+    const dep_model *model = system->model;
+    model->force(q, qd, t, system->p, f);
+    if (!dep_hinge_forcing(system)) {
+        return;
+    }
+    dep_hinge_torques(system, q, qd, friction, system->tau);
+    model->hinge_jacobian(q, system->p, system->hinge_jacobian);
+    dep_hinge_transpose_times(system, system->hinge_jacobian, system->tau,
+                              system->torque_force);
+    for (int j = 0; j < system->nq; ++j) {
+        f[j] += system->torque_force[j];
+    }
+}
+
+void dep_system_force(const dep_system *system, const double *q, const double *qd, double t,
+                      double *f)
+{
+    force(system, q, qd, t, NULL, f);
+}
+
+/* The power removed by each dissipator (nd), W. */
+void dep_system_dissipation(const dep_system *system, const double *q, const double *qd,
+                            double t, double *power)
+{
+    if (system->model->nd > 0) {
+        system->model->dissipation(q, qd, t, system->p, power);
+    }
+    dep_hinge_dissipation(system, q, qd, power);
+}
+
+void dep_system_force_power(const dep_system *system, const double *q, const double *qd,
+                            double t, const double *friction, double *f, double *power)
+{
+    force(system, q, qd, t, friction, f);
+    if (system->model->nd > 0) {
+        system->model->dissipation(q, qd, t, system->p, power);
+    }
+    if (dep_hinge_forcing(system)) { /* dep_system_force left the rates and torques */
+        dep_hinge_power(system, q, power);
+    } else {
+        dep_hinge_dissipation(system, q, qd, power);
+    }
+}
+
+/* Kinetic energy and each potential (ne), J. */
+void dep_system_energy(const dep_system *system, const double *q, const double *qd, double t,
+                       double *energy)
+{
+    system->model->energy(q, qd, t, system->p, energy);
+    dep_hinge_energy(system, q, energy);
+}
