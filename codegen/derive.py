@@ -41,6 +41,8 @@ class SymbolicSystem:
     mass_pattern: tuple[tuple[int, int], ...]  # its structural non-zeros, row-major
     constraint_names: tuple[str, ...]  # NC rows, "<joint>.<component>"
     constraint_joints: tuple[str, ...]
+    constraint_hinges: tuple[int, ...]  # each row's hinge (index), -1 for none
+    constraint_sliders: tuple[int, ...]  # each row's slider (index), -1 for none
     phi: ImmutableMatrix  # (NC, 1)
     phi_q: ImmutableSparseMatrix  # (NC, NQ)
     phi_q_pattern: tuple[tuple[int, int], ...]  # structural non-zeros of phi_q, row-major
@@ -142,7 +144,7 @@ def derive(model: ir.Model) -> SymbolicSystem:
     kin = Kinematics(model, symbols, beams, assembly.beam_angles)
     q, qd, t = symbols.q, column(symbols.qd), symbols.t
     rows = _constraints(model, kin, assembly.at_start)
-    phi = column(residual for _, _, residual in rows)
+    phi = column(row.residual for row in rows)
     phi_q = jacobian(phi, q)
     lam, entries, phi_q_lam = _transpose_times(phi_q)
     phi_t = phi.diff(t)
@@ -153,8 +155,10 @@ def derive(model: ir.Model) -> SymbolicSystem:
     return SymbolicSystem(
         name=model.name, coordinates=symbols.names, q=q, qd=symbols.qd, p=symbols.p, t=t,
         mass_matrix=mass, mass_pattern=_pattern(mass),
-        constraint_names=tuple(name for name, _, _ in rows),
-        constraint_joints=tuple(joint for _, joint, _ in rows),
+        constraint_names=tuple(row.name for row in rows),
+        constraint_joints=tuple(row.joint for row in rows),
+        constraint_hinges=tuple(row.hinge for row in rows),
+        constraint_sliders=tuple(row.slider for row in rows),
         phi=phi, phi_q=phi_q, phi_q_pattern=_pattern(phi_q), lam=lam,
         phi_q_entries=entries, phi_q_lam=phi_q_lam, phi_t=phi_t,
         gamma=acceleration_rhs(phi, phi_q, symbols), force=column(loads.force),
@@ -201,19 +205,32 @@ def _output(output: ir.Output, kin: Kinematics) -> sympy.Expr:
     return expr
 
 
-def _constraints(model: ir.Model, kin: Kinematics, at_start):
-    """(row name, joint name, residual) of every constraint row, hinges then sliders
+@dataclass(frozen=True)
+class _Row:
+    """A constraint row: its name, its joint's name and index among the hinges or the sliders
+    (-1 for the other kind), and its residual."""
+
+    name: str
+    joint: str
+    hinge: int
+    slider: int
+    residual: sympy.Expr
+
+
+def _constraints(model: ir.Model, kin: Kinematics, at_start) -> list[_Row]:
+    """Every constraint row, hinges then sliders; a hinge's x, y rows are its reaction force
     (`at_start`: an expression at the initial placement, for a slider's relative angle)."""
     rows = []
-    for hinge in model.hinges:
+    for index, hinge in enumerate(model.hinges):
         ra, rb = kin.attachment_position(hinge.a), kin.attachment_position(hinge.b)
-        rows += [(f"{hinge.name}.x", hinge.name, ra[0] - rb[0]),
-                 (f"{hinge.name}.y", hinge.name, ra[1] - rb[1])]
+        rows += [_Row(f"{hinge.name}.x", hinge.name, index, -1, ra[0] - rb[0]),
+                 _Row(f"{hinge.name}.y", hinge.name, index, -1, ra[1] - rb[1])]
     for index, slider in enumerate(model.sliders):
         (ux, uy), (dx, dy) = kin.slider_axis(index), kin.slider_offset(index)
         relative = kin.attachment_angle(slider.b) - kin.attachment_angle(slider.a)
-        rows += [(f"{slider.name}.normal", slider.name, ux * dy - uy * dx),
-                 (f"{slider.name}.angle", slider.name, relative - at_start(relative))]
+        rows += [_Row(f"{slider.name}.normal", slider.name, -1, index, ux * dy - uy * dx),
+                 _Row(f"{slider.name}.angle", slider.name, -1, index,
+                      relative - at_start(relative))]
     return rows
 
 

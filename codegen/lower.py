@@ -324,6 +324,8 @@ def lower_module(model: ir.Model, system: SymbolicSystem, printer: PrinterFactor
         "PARAMETER_DEFAULTS": tuple(float(p.default) for p in model.params),
         "PARAMETER_UNITS": tuple(p.unit for p in model.params),
         "CONSTRAINTS": system.constraint_names, "CONSTRAINT_JOINTS": system.constraint_joints,
+        "CONSTRAINT_HINGES": system.constraint_hinges,
+        "CONSTRAINT_SLIDERS": system.constraint_sliders,
         "PHI_Q_ROWS": tuple(rows), "PHI_Q_COLS": tuple(cols), "HINGES": system.hinge_names,
         "HINGE_PROPERTIES": HINGE_PROPERTIES, "SLIDERS": system.slider_names,
         "OUTPUTS": system.output_names, "OUTPUT_UNITS": tuple(o.unit for o in model.outputs),

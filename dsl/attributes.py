@@ -23,13 +23,23 @@ from .units import ANGLE, LENGTH, MASS, NONE, TIME, TORQUE, describe, dim_div, s
 class AttrSpec:
     """An attribute of an element kind. dim None: read by dedicated code (angle, angles,
     elements, axis). limit: "positive", "nonnegative" or "". default: the SI value an
-    attribute takes when the model leaves it out (None: it is absent then)."""
+    attribute takes when the model leaves it out (None: it is absent then). meaning: one line
+    for the language reference (docs/language.md shows the hinge's from here). column: a hinge
+    property the integrator applies itself, its column of a generated model's
+    hinge_properties(p) (None: derived into the model's forces, or not a hinge's)."""
 
     name: str
     dim: Dim | None
     required: bool = False
     limit: str = ""
     default: float | None = None
+    meaning: str = ""
+    column: int | None = None
+
+    @property
+    def unit(self) -> str:
+        """The SI unit text ("rad" for a hinge angle, read by dedicated code)."""
+        return si_text(self.dim) if self.dim is not None else "rad" if self.name == "angle" else ""
 
 
 _STIFFNESS = Dim(mass=1, length=2, time=-2, angle=-1)
@@ -45,14 +55,32 @@ SPECS: dict[str, tuple[AttrSpec, ...]] = {
              AttrSpec("EA", Dim(mass=1, length=1, time=-2), True, "positive"),
              AttrSpec("mass_per_length", Dim(mass=1, length=-1), True, "positive"),
              AttrSpec("elements", None, True), AttrSpec("damping", TIME, False, "nonnegative")),
-    "hinge": (AttrSpec("angle", None), AttrSpec("stiffness", _STIFFNESS, False, "nonnegative"),
-              AttrSpec("preload", TORQUE), AttrSpec("friction", TORQUE, False, "nonnegative"),
-              AttrSpec("static_friction", TORQUE, False, "nonnegative"),
-              AttrSpec("slip_rate", Dim(angle=1, time=-1), False, "positive", default=1e-3),
-              AttrSpec("damping", _DAMPING, False, "nonnegative"), AttrSpec("latch", ANGLE),
-              AttrSpec("latch_stiffness", _STIFFNESS, False, "positive"),
-              AttrSpec("latch_damping", _DAMPING, False, "nonnegative"),
-              AttrSpec("stop_min", ANGLE), AttrSpec("stop_max", ANGLE)),
+    # The one definition of a hinge's attributes: the language reads them, the IR carries them
+    # (dsl/ir.py, Hinge), codegen makes the columns of hinge_properties(p) and the C header's
+    # enum dep_hinge_property from those with a column (python -m
+    # depsim.codegen.interface_header), and docs/language.md shows this table (tests compare).
+    "hinge": (
+        AttrSpec("angle", None, meaning="the hinge angle, above"),
+        AttrSpec("stiffness", _STIFFNESS, False, "nonnegative",
+                 meaning="spring: torque on theta is `preload - stiffness * theta`"),
+        AttrSpec("preload", TORQUE, meaning="spring torque at theta = 0"),
+        AttrSpec("friction", TORQUE, False, "nonnegative", column=5,
+                 meaning="Coulomb friction `-friction * tanh(theta_rate / slip_rate)`"),
+        AttrSpec("static_friction", TORQUE, False, "nonnegative", column=6,
+                 meaning="stick-slip model when given (at least `friction`)"),
+        AttrSpec("slip_rate", Dim(angle=1, time=-1), False, "positive", default=1e-3, column=7,
+                 meaning="regularisation of friction"),
+        AttrSpec("damping", _DAMPING, False, "nonnegative",
+                 meaning="viscous `-damping * theta_rate`"),
+        AttrSpec("latch", ANGLE, column=0,
+                 meaning="the hinge locks when theta first reaches this angle"),
+        AttrSpec("latch_stiffness", _STIFFNESS, False, "positive", column=1,
+                 meaning="a flexible latch (rigid without it); needs `latch` (E028)"),
+        AttrSpec("latch_damping", _DAMPING, False, "nonnegative", column=2,
+                 meaning="damping of a flexible latch; needs `latch` (E028)"),
+        AttrSpec("stop_min", ANGLE, column=3, meaning="one-sided lower limit of theta"),
+        AttrSpec("stop_max", ANGLE, column=4,
+                 meaning="one-sided upper limit of theta, above `stop_min` (E028)")),
     "slider": (AttrSpec("axis", None, True),),
     "cable": (AttrSpec("stiffness", _STIFFNESS, True, "nonnegative"),
               AttrSpec("angles", None, True)),
@@ -64,9 +92,24 @@ SPECS: dict[str, tuple[AttrSpec, ...]] = {
 _POINTS_ALLOWED = ("bar", "body", "ground")
 
 # The hinge attributes the integrator applies itself (Coulomb friction, latches, hard stops,
-# stick-slip): the columns of a generated model's hinge_properties(p), in this order.
-HINGE_PROPERTIES = ("latch", "latch_stiffness", "latch_damping", "stop_min", "stop_max",
-                    "friction", "static_friction", "slip_rate")
+# stick-slip): the columns of a generated model's hinge_properties(p), in column order.
+HINGE_PROPERTIES = tuple(spec.name for spec in sorted(
+    (spec for spec in SPECS["hinge"] if spec.column is not None), key=lambda s: s.column))
+assert sorted(s.column for s in SPECS["hinge"] if s.column is not None) == \
+    list(range(len(HINGE_PROPERTIES))), "hinge property columns are numbered 0, 1, 2, ..."
+
+
+def hinge_attribute_table() -> str:
+    """The hinge attributes as docs/language.md shows them (a Markdown table), from SPECS."""
+    lines = ["| attribute | unit | meaning |", "|---|---|---|"]
+    for spec in SPECS["hinge"]:
+        notes = [spec.meaning]
+        if spec.limit:
+            notes.append({"positive": "> 0", "nonnegative": ">= 0"}[spec.limit])
+        if spec.default is not None:
+            notes.append(f"default {spec.default:g} {spec.unit}")
+        lines.append(f"| `{spec.name}` | {spec.unit} | {'; '.join(notes)} |")
+    return "\n".join(lines) + "\n"
 
 
 def read_block(block: Block | None, kind: str, owner: str, owner_span: Span,

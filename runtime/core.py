@@ -191,7 +191,9 @@ def core_library_path() -> Path:
 
 
 def _declarations(text: str) -> str:
-    """A header as cffi reads it: preprocessor lines dropped except `#define NAME <integer>`."""
+    """A header as cffi reads it: preprocessor lines (with their continuation lines) dropped
+    except `#define NAME <integer>`."""
+    text = re.sub(r"\\\n", " ", text)
     return re.sub(r"^\s*#(?!\s*define\s+\w+\s+\d+\b).*$", "", text, flags=re.MULTILINE)
 
 

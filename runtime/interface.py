@@ -4,10 +4,11 @@ A model is a set of sizes, name tables, simulation settings and the functions be
 NumPy module (`<model>.py`) has them as constants and functions, the C model (`model.c`) as
 the fields of one `dep_model` struct (runtime/c/depsim_model.h). Everything else is derived
 from the tables here: codegen emits the functions in this order with these arguments and
-results, the C header is rendered from them (`render_header`; a test keeps the file in
-runtime/c equal to it), and the runtime fills a `dep_model` from a NumPy module with them.
+results, the C header is rendered from them (depsim.codegen.interface_header; a test keeps the
+file in runtime/c/include equal to it), and the runtime fills a `dep_model` from a NumPy
+module with them.
 
-    python -m depsim.runtime.interface > runtime/c/depsim_model.h    # after a change here
+    python -m depsim.codegen.interface_header > runtime/c/include/depsim_model.h
 
 Arrays are float64 in SI units; q, qd have NQ entries, p NP; t is the time (s); v holds the
 values of the assembly tree's joints (NV: angles, rad, and slider displacements, m), vd their
@@ -20,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-ABI = 9  # DEP_MODEL_ABI: bumped whenever the dep_model struct changes
+ABI = 10  # DEP_MODEL_ABI: bumped whenever the dep_model struct changes
 
 ARGUMENTS = ("v", "vd", "q", "qd", "t", "p", "lam")  # each function takes a subsequence, in order
 
@@ -97,6 +98,11 @@ TABLES = (
     Table("constraint_names", "CONSTRAINTS", "const char *const", "nc",
           '"<joint>.<component>"'),
     Table("constraint_joints", "CONSTRAINT_JOINTS", "const char *const", "nc", ""),
+    Table("constraint_hinges", "CONSTRAINT_HINGES", "const int", "nc",
+          "the hinge (index into hinge_names) whose row it is, -1 for none; a hinge's rows in "
+          "component order (x, y): its reaction force"),
+    Table("constraint_sliders", "CONSTRAINT_SLIDERS", "const int", "nc",
+          "the slider (index into slider_names) whose row it is, -1 for none"),
     Table("phi_q_rows", "PHI_Q_ROWS", "const int", "nnz", "row-major sorted"),
     Table("phi_q_cols", "PHI_Q_COLS", "const int", "nnz", ""),
     Table("hinge_names", "HINGES", "const char *const", "nh", ""),
@@ -238,49 +244,3 @@ def c_declaration(function: Function, restrict: bool = False) -> str:
     pointer = "double *restrict " if restrict else "double *"
     return ", ".join([_C_ARGUMENTS[a] for a in function.args]
                      + [f"{pointer}{r.name}" for r in function.results])
-
-
-def render_header() -> str:
-    """runtime/c/depsim_model.h, rendered from the tables above."""
-    lines = [
-        "/* depsim_model.h: what the integrator needs from a model. GENERATED from",
-        " * depsim/runtime/interface.py (python -m depsim.runtime.interface); do not edit.",
-        " *",
-        " * A generated model.c defines one `const dep_model depsim_model` filled with its",
-        " * sizes, name tables and functions; a NumPy module is seen through the same struct.",
-        " * The functions have the names of docs/generated-module.md (prefixed `model_` in",
-        " * model.h) and its argument order; the result arrays come last and are written",
-        " * completely (zeros included). Arrays hold doubles in SI units: q, qd: nq; p: np;",
-        " * t: time (s). Matrices are row-major. Empty tables are NULL.",
-        " */",
-        "#ifndef DEPSIM_MODEL_H",
-        "#define DEPSIM_MODEL_H",
-        "",
-        f"#define DEP_MODEL_ABI {ABI} /* bumped whenever this struct changes */",
-        "",
-        "typedef struct dep_model {",
-        "    int abi; /* DEP_MODEL_ABI of the header the model was compiled with */",
-        "",
-        "    /* identity */",
-    ]
-    lines += [f"    const char *{field};" for field, _ in IDENTITY]
-    lines += ["", "    /* sizes */"]
-    lines += [f"    int {s.field}; /* {s.meaning} */" for s in SIZES]
-    lines += ["", "    /* tables (NULL when empty) */"]
-    for t in TABLES:
-        ctype = t.ctype.replace("const char *const", "const char *const *").replace(
-            "const double", "const double *").replace("const int", "const int *")
-        note = f"{t.size}" + (f", {t.note}" if t.note else "")
-        lines.append(f"    {ctype}{'' if ctype.endswith('*') else ' '}{t.field}; /* {note} */")
-    lines += ["", "    /* the model's simulation settings */",
-              "    double " + ", ".join(f for f, _ in SETTINGS) + ";", "",
-              "    /* functions (docs/generated-module.md) */"]
-    for f in FUNCTIONS:
-        lines.append(f"    /* {f.summary} */")
-        lines.append(f"    void (*{f.name})({c_declaration(f)});")
-    lines += ["} dep_model;", "", "#endif /* DEPSIM_MODEL_H */", ""]
-    return "\n".join(lines)
-
-
-if __name__ == "__main__":
-    print(render_header(), end="")

@@ -1,12 +1,17 @@
-"""The model interface and the core's C structs are each defined once: depsim_model.h is
-rendered from depsim.runtime.interface, Python reads the structs from the headers (cffi), and
-the layout cffi computes is the C compiler's."""
+"""The model interface and the core's C structs are each defined once: Python reads the structs
+from the headers (cffi), and the layout cffi computes is the C compiler's (the header itself is
+rendered from the interface: tests/codegen/test_interface_header.py)."""
 
 from __future__ import annotations
 
 import subprocess
 
-from depsim.runtime import interface
+import numpy as np
+import pytest
+from runtime_helpers import variant
+
+from depsim.dsl import attributes
+from depsim.runtime import interface, simulate
 from depsim.runtime.core import SOURCE_DIR, compiler, ffi
 
 # (struct, fields) whose layout Python reads: every struct the binding exchanges with C.
@@ -26,12 +31,6 @@ STRUCTS = {
     "dep_stats": ("accepted_steps", "position", "cg_iterations", "max_v_acc", "events"),
     "dep_datum": ("key", "member", "kind", "number", "text"),
 }
-
-
-def test_the_model_header_is_rendered_from_the_interface_table():
-    text = (SOURCE_DIR / "include" / "depsim_model.h").read_text(encoding="utf-8")
-    assert text == interface.render_header(), \
-        "run: python -m depsim.runtime.interface > runtime/c/include/depsim_model.h"
 
 
 def test_the_interface_lists_every_function_of_the_struct_in_order():
@@ -59,3 +58,17 @@ def test_cffi_reads_the_structs_as_the_compiler_lays_them_out(tmp_path):
                     str(source)], check=True)
     printed = subprocess.run([str(program)], capture_output=True, text=True, check=True).stdout
     assert [int(v) for v in printed.split()] == expected
+
+
+def test_a_model_with_other_hinge_property_columns_is_refused(pendulum):
+    """A model whose hinge_properties columns are not the core's (made for another table) is
+    refused when its run starts: read as it is, its latch would silently be 'not given'."""
+    swapped = ("latch_stiffness", "latch") + attributes.HINGE_PROPERTIES[2:]
+    with pytest.raises(ValueError, match="hinge property 0 is 'latch_stiffness' where the "
+                       "integrator reads 'latch'"):
+        simulate(variant(pendulum, HINGE_PROPERTIES=swapped), t_end=0.1)
+    short = variant(pendulum, HINGE_PROPERTIES=attributes.HINGE_PROPERTIES[:7],
+                    hinge_properties=lambda p: np.full((1, 7), np.nan))
+    with pytest.raises(ValueError, match="the model has 7 hinge properties, the integrator "
+                       "reads 8"):
+        simulate(short, t_end=0.1)

@@ -1,5 +1,6 @@
 /* depsim_model.h: what the integrator needs from a model. GENERATED from
- * depsim/runtime/interface.py (python -m depsim.runtime.interface); do not edit.
+ * depsim/runtime/interface.py and depsim/dsl/attributes.py
+ * (python -m depsim.codegen.interface_header); do not edit.
  *
  * A generated model.c defines one `const dep_model depsim_model` filled with its
  * sizes, name tables and functions; a NumPy module is seen through the same struct.
@@ -11,7 +12,31 @@
 #ifndef DEPSIM_MODEL_H
 #define DEPSIM_MODEL_H
 
-#define DEP_MODEL_ABI 9 /* bumped whenever this struct changes */
+#define DEP_MODEL_ABI 10 /* bumped whenever this struct changes */
+
+/* The columns of hinge_properties (HINGE_PROPERTIES): the hinge attributes the
+   integrator applies itself (docs/language.md, hinge), SI; nan where not given. */
+enum dep_hinge_property {
+    DEP_HINGE_LATCH = 0, /* rad */
+    DEP_HINGE_LATCH_STIFFNESS = 1, /* N*m/rad */
+    DEP_HINGE_LATCH_DAMPING = 2, /* N*m*s/rad */
+    DEP_HINGE_STOP_MIN = 3, /* rad */
+    DEP_HINGE_STOP_MAX = 4, /* rad */
+    DEP_HINGE_FRICTION = 5, /* N*m */
+    DEP_HINGE_STATIC_FRICTION = 6, /* N*m */
+    DEP_HINGE_SLIP_RATE = 7, /* rad/s */
+    DEP_HINGE_PROPERTIES = 8 /* their count: every model's nhp */
+};
+/* Their names, in column order (an initializer of const char *[]). */
+#define DEP_HINGE_PROPERTY_NAMES \
+    {"latch", \
+     "latch_stiffness", \
+     "latch_damping", \
+     "stop_min", \
+     "stop_max", \
+     "friction", \
+     "static_friction", \
+     "slip_rate"}
 
 typedef struct dep_model {
     int abi; /* DEP_MODEL_ABI of the header the model was compiled with */
@@ -48,6 +73,8 @@ typedef struct dep_model {
     const char *const *parameter_units; /* np, SI unit text */
     const char *const *constraint_names; /* nc, "<joint>.<component>" */
     const char *const *constraint_joints; /* nc */
+    const int *constraint_hinges; /* nc, the hinge (index into hinge_names) whose row it is, -1 for none; a hinge's rows in component order (x, y): its reaction force */
+    const int *constraint_sliders; /* nc, the slider (index into slider_names) whose row it is, -1 for none */
     const int *phi_q_rows; /* nnz, row-major sorted */
     const int *phi_q_cols; /* nnz */
     const char *const *hinge_names; /* nh */

@@ -260,7 +260,7 @@ void dep_cs_v_acc(dep_constraints *cs, const double *q, const double *qd, const 
 void dep_cs_describe(const dep_constraints *cs, int row, char *joint_text, size_t size)
 {
     const char *joint = cs->row_joints[row];
-    const char *kind = row >= cs->nc_module ? "lock" : dep_joint_kind(cs->system->model, joint);
+    const char *kind = row >= cs->nc_module ? "lock" : dep_joint_kind(cs->system->model, row);
     snprintf(joint_text, size, "%s %s", kind, joint);
 }
 

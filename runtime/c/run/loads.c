@@ -11,20 +11,6 @@
 #include "run.h"
 
 
-/* The position of "<hinge>.<suffix>" among the model's constraint rows, or -1. */
-static int model_row(const dep_model *model, const char *hinge, const char *suffix)
-{
-    size_t length = strlen(hinge);
-    for (int i = 0; i < model->nc; ++i) {
-        const char *name = model->constraint_names[i];
-        if (strncmp(name, hinge, length) == 0 && name[length] == '.'
-            && strcmp(name + length + 1, suffix) == 0) {
-            return i;
-        }
-    }
-    return -1;
-}
-
 int dep_loads_init(dep_loads *loads, const dep_model *model, dep_arena *arena)
 {
     size_t nh = (size_t)model->nh;
@@ -43,14 +29,13 @@ int dep_loads_init(dep_loads *loads, const dep_model *model, dep_arena *arena)
     }
     for (size_t k = 0; k < nh; ++k) {
         loads->t_force[k] = loads->t_torque[k] = NAN;
-        loads->rows[2 * k] = model_row(model, model->hinge_names[k], "x");
-        loads->rows[2 * k + 1] = model_row(model, model->hinge_names[k], "y");
     }
+    dep_hinge_force_rows(model, loads->rows);
     return DEP_OK;
 }
 
-/* (F_x, F_y) of each hinge (2 nh) from its rows "<h>.x", "<h>.y" (the model's), NAN where
-   it has none. */
+/* (F_x, F_y) of each hinge (2 nh) from its rows x, y (the model's), NAN where it has
+   none. */
 void dep_hinge_forces(const dep_loads *loads, const double *lam, double *forces)
 {
     for (int k = 0; k < loads->nh; ++k) {

@@ -7,28 +7,23 @@
 
 #include "system.h"
 
-/* The hinge properties the integrator applies, by name (columns of hinge_properties). */
-static const char *const PROPERTIES[8] = {"latch", "latch_stiffness", "latch_damping",
-                                          "stop_min", "stop_max", "friction",
-                                          "static_friction", "slip_rate"};
-
 /* A hinge's properties from its row of hinge_properties (NAN: not given), free. */
 static void read_hinge(dep_hinge_mechanics *h, const double *v, int mechanics)
 {
-    h->has_latch = mechanics && !isnan(v[0]);
-    h->latch = v[0];
-    h->compliant = h->has_latch && !isnan(v[1]);
-    h->latch_stiffness = v[1];
-    h->latch_damping = isnan(v[2]) ? 0.0 : v[2];
-    h->has_stop_min = mechanics && !isnan(v[3]);
-    h->stop_min = v[3];
-    h->has_stop_max = mechanics && !isnan(v[4]);
-    h->stop_max = v[4];
-    h->has_friction = !isnan(v[5]);
-    h->kinetic = isnan(v[5]) ? 0.0 : v[5];
-    h->has_static = mechanics && !isnan(v[6]);
-    h->static_friction = v[6];
-    h->slip_rate = v[7];
+    h->has_latch = mechanics && !isnan(v[DEP_HINGE_LATCH]);
+    h->latch = v[DEP_HINGE_LATCH];
+    h->compliant = h->has_latch && !isnan(v[DEP_HINGE_LATCH_STIFFNESS]);
+    h->latch_stiffness = v[DEP_HINGE_LATCH_STIFFNESS];
+    h->latch_damping = isnan(v[DEP_HINGE_LATCH_DAMPING]) ? 0.0 : v[DEP_HINGE_LATCH_DAMPING];
+    h->has_stop_min = mechanics && !isnan(v[DEP_HINGE_STOP_MIN]);
+    h->stop_min = v[DEP_HINGE_STOP_MIN];
+    h->has_stop_max = mechanics && !isnan(v[DEP_HINGE_STOP_MAX]);
+    h->stop_max = v[DEP_HINGE_STOP_MAX];
+    h->has_friction = !isnan(v[DEP_HINGE_FRICTION]);
+    h->kinetic = isnan(v[DEP_HINGE_FRICTION]) ? 0.0 : v[DEP_HINGE_FRICTION];
+    h->has_static = mechanics && !isnan(v[DEP_HINGE_STATIC_FRICTION]);
+    h->static_friction = v[DEP_HINGE_STATIC_FRICTION];
+    h->slip_rate = v[DEP_HINGE_SLIP_RATE];
     h->latch_side = 1.0;
     h->direction = 1.0;
     h->latch_state = DEP_OPEN;
@@ -36,32 +31,56 @@ static void read_hinge(dep_hinge_mechanics *h, const double *v, int mechanics)
     h->stuck = 0;
 }
 
+/* The model's hinge properties are the columns the core reads (depsim_model.h), in order: a
+   model made for another table is refused, never read as "not given" (a model without hinges
+   has none to read). */
+static int check_columns(const dep_model *model, dep_error *error)
+{
+    static const char *const names[DEP_HINGE_PROPERTIES] = DEP_HINGE_PROPERTY_NAMES;
+    char message[DEP_NAME_MAX + 200];
+    int k = 0;
+    if (model->nh == 0) {
+        return DEP_OK;
+    }
+    while (k < DEP_HINGE_PROPERTIES && k < model->nhp
+           && strcmp(model->hinge_property_names[k], names[k]) == 0) {
+        ++k;
+    }
+    if (k == DEP_HINGE_PROPERTIES && model->nhp == DEP_HINGE_PROPERTIES) {
+        return DEP_OK;
+    }
+    if (k < model->nhp && k < DEP_HINGE_PROPERTIES) {
+        snprintf(message, sizeof message, "the model's hinge property %d is '%.*s' where the "
+                 "integrator reads '%s'; generate the model again with this depsim", k,
+                 DEP_NAME_MAX, model->hinge_property_names[k], names[k]);
+    } else {
+        snprintf(message, sizeof message, "the model has %d hinge properties, the integrator "
+                 "reads %d; generate the model again with this depsim", model->nhp,
+                 DEP_HINGE_PROPERTIES);
+    }
+    return dep_plain_error(error, DEP_SETTINGS_ERROR, message);
+}
+
 /* Every hinge's properties; a SETTINGS error for a friction law without a positive
    slip rate. */
 int dep_hinges_read(dep_system *system, int mechanics, dep_arena *arena, dep_error *error)
 {
     const dep_model *model = system->model;
-    int nh = model->nh, nhp = model->nhp, column[8];
-    double *table = dep_doubles(arena, (size_t)nh * (size_t)nhp), v[8];
+    int nh = model->nh, status = check_columns(model, error);
+    double *table = dep_doubles(arena, (size_t)nh * DEP_HINGE_PROPERTIES);
     system->hinges = dep_bytes(arena, (size_t)(nh ? nh : 1) * sizeof *system->hinges);
+    if (status != DEP_OK) {
+        return status;
+    }
     if (arena->failed) {
         return dep_plain_error(error, DEP_MEMORY_ERROR, "out of memory");
     }
-    for (int k = 0; k < 8; ++k) {
-        column[k] = -1;
-        for (int c = 0; c < nhp; ++c) {
-            column[k] = strcmp(model->hinge_property_names[c], PROPERTIES[k]) == 0 ? c : column[k];
-        }
-    }
-    if (nh > 0 && nhp > 0) {
+    if (nh > 0) {
         model->hinge_properties(system->p, table);
     }
     for (int i = 0; i < nh; ++i) {
         dep_hinge_mechanics *h = &system->hinges[i];
-        for (int k = 0; k < 8; ++k) {
-            v[k] = column[k] >= 0 ? table[(size_t)i * (size_t)nhp + (size_t)column[k]] : NAN;
-        }
-        read_hinge(h, v, mechanics);
+        read_hinge(h, table + (size_t)i * DEP_HINGE_PROPERTIES, mechanics);
         h->index = i;
         h->name = model->hinge_names[i];
         if (h->has_friction && !(h->slip_rate > 0)) {
@@ -86,17 +105,23 @@ int dep_hinge_sliding(const dep_hinge_mechanics *h)
     return h->has_static && !dep_hinge_locked(h) && !h->stuck;
 }
 
-const char *dep_joint_kind(const dep_model *model, const char *joint)
+/* Each hinge's rows x and y among the model's constraint rows (constraint_hinges: a hinge's
+   rows in component order), -1 where a hinge has none. */
+void dep_hinge_force_rows(const dep_model *model, int *rows)
 {
-    for (int i = 0; i < model->nh; ++i) {
-        if (strcmp(model->hinge_names[i], joint) == 0) {
-            return "hinge";
+    for (int k = 0; k < 2 * model->nh; ++k) {
+        rows[k] = -1;
+    }
+    for (int i = 0; i < model->nc; ++i) {
+        int k = model->constraint_hinges[i];
+        if (k >= 0) {
+            rows[2 * k + (rows[2 * k] >= 0)] = i;
         }
     }
-    for (int i = 0; i < model->ns; ++i) {
-        if (strcmp(model->slider_names[i], joint) == 0) {
-            return "slider";
-        }
-    }
-    return "joint";
+}
+
+const char *dep_joint_kind(const dep_model *model, int row)
+{
+    return model->constraint_hinges[row] >= 0 ? "hinge"
+           : model->constraint_sliders[row] >= 0 ? "slider" : "joint";
 }

@@ -53,8 +53,10 @@ typedef struct dep_hinge_mechanics {
 
 int dep_hinge_locked(const dep_hinge_mechanics *h);   /* by a latch or a stop */
 int dep_hinge_sliding(const dep_hinge_mechanics *h);  /* stick-slip, slipping */
-/* "hinge", "slider" or "joint": what the model's joint `joint` is (for messages). */
-const char *dep_joint_kind(const dep_model *model, const char *joint);
+/* "hinge", "slider" or "joint": the kind of the joint whose model row `row` is (messages). */
+const char *dep_joint_kind(const dep_model *model, int row);
+/* Each hinge's rows x and y (2 nh) among the model's rows: its reaction force; -1: none. */
+void dep_hinge_force_rows(const dep_model *model, int *rows);
 
 /* ---- system.c ----------------------------------------------------------------------------- */
 

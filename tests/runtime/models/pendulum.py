@@ -11,6 +11,8 @@ damping c (N m s/rad) on the hinge.
 
 import numpy as np
 
+from depsim.dsl import attributes
+
 MODEL_NAME = "pendulum"
 SOURCE_FILE = "pendulum.py"
 SOURCE_SHA256 = "0" * 64
@@ -22,10 +24,11 @@ PARAMETER_DEFAULTS = (1.0, 2.0, 9.81, np.pi / 3, 0.0, 0.0)
 PARAMETER_UNITS = ("m", "kg", "m/s^2", "rad", "rad/s", "N*m*s/rad")
 CONSTRAINTS = ("pivot.x", "pivot.y")
 CONSTRAINT_JOINTS = ("pivot", "pivot")
+CONSTRAINT_HINGES = (0, 0)
+CONSTRAINT_SLIDERS = (-1, -1)
 PHI_Q_ROWS = (0, 0, 1, 1)
 PHI_Q_COLS = (0, 2, 1, 2)
-HINGE_PROPERTIES = ("latch", "latch_stiffness", "latch_damping", "stop_min", "stop_max",
-                    "friction", "static_friction", "slip_rate")
+HINGE_PROPERTIES = attributes.HINGE_PROPERTIES
 HINGES = ("pivot",)
 SLIDERS = ()
 OUTPUTS = ("theta", "omega", "tip_x", "tip_y")

@@ -10,6 +10,8 @@ theta_dot on theta = phi_crank. No gravity.
 
 import numpy as np
 
+from depsim.dsl import attributes
+
 MODEL_NAME = "slider_crank"
 SOURCE_FILE = "slider_crank.py"
 SOURCE_SHA256 = "0" * 64
@@ -27,10 +29,11 @@ CONSTRAINTS = ("crank_pin.x", "crank_pin.y", "wrist.x", "wrist.y", "gudgeon.x", 
                "guide.normal", "guide.angle")
 CONSTRAINT_JOINTS = ("crank_pin", "crank_pin", "wrist", "wrist", "gudgeon", "gudgeon",
                      "guide", "guide")
+CONSTRAINT_HINGES = (0, 0, 1, 1, 2, 2, -1, -1)
+CONSTRAINT_SLIDERS = (-1, -1, -1, -1, -1, -1, 0, 0)
 PHI_Q_ROWS = (0, 0, 1, 1, 2, 2, 2, 2, 3, 3, 3, 3, 4, 4, 4, 5, 5, 5, 6, 7)
 PHI_Q_COLS = (0, 2, 1, 2, 0, 2, 3, 5, 1, 2, 4, 5, 3, 5, 6, 4, 5, 7, 7, 8)
-HINGE_PROPERTIES = ("latch", "latch_stiffness", "latch_damping", "stop_min", "stop_max",
-                    "friction", "static_friction", "slip_rate")
+HINGE_PROPERTIES = attributes.HINGE_PROPERTIES
 HINGES = ("crank_pin", "wrist", "gudgeon")
 SLIDERS = ("guide",)
 OUTPUTS = ("crank_angle", "piston_x", "rod_angle")
