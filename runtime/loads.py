@@ -1,8 +1,9 @@
-"""Hinge reaction loads from the Lagrange multipliers, and the records of the deployment
-summary (the integrator core computes the summary itself: runtime/c/summary.c).
+"""Hinge reaction loads and the records of the deployment summary, as the integrator core
+computes them (runtime/c/run/loads.c, recording.c, summary.c).
 
 Sign conventions (docs/deployment.md, section 5). A generated module's hinge rows are
-"<h>.x", "<h>.y" = r_a - r_b (a, b the members in the order the hinge joins them). With
+"<h>.x", "<h>.y" = r_a - r_b (a, b the members in the order the hinge joins them;
+CONSTRAINT_HINGES names each row's hinge). With
 M qdd = f - Phi_q^T lambda, the row's force on member b is +lambda and on member a -lambda, so
 
     F_h = (lambda_<h>.x, lambda_<h>.y)     force on member b from member a, world frame (N)
@@ -69,21 +70,3 @@ class Deployment:
     time: float | None
     friction_energy: float
     impact_energy: float
-
-
-def reaction_rows(hinges, names) -> list[tuple[int, int]]:
-    """Column indices of "<h>.x", "<h>.y" in `names` for each hinge (-1 when absent)."""
-    index = {name: i for i, name in enumerate(names)}
-    return [(index.get(f"{h}.x", -1), index.get(f"{h}.y", -1)) for h in hinges]
-
-
-def hinge_forces(hinges, names, lam: np.ndarray) -> np.ndarray:
-    """Hinge forces (..., NH, 2) on member b from member a (N) from multipliers lam (..., rows)
-    named `names`; NaN where a row is missing or inactive."""
-    lam = np.asarray(lam, dtype=float)
-    out = np.full(lam.shape[:-1] + (len(hinges), 2), np.nan)
-    for k, (ix, iy) in enumerate(reaction_rows(hinges, names)):
-        if ix >= 0 and iy >= 0:
-            out[..., k, 0] = lam[..., ix]
-            out[..., k, 1] = lam[..., iy]
-    return out

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .loads import Deployment, HingeLoad, PeakLoad, hinge_forces
+from .loads import Deployment, HingeLoad, PeakLoad
 from .output import atomic_path
 
 # The most output times a run may record: each costs a row of every array of the Result
@@ -81,11 +81,15 @@ class Stats:
 
 @dataclass(frozen=True, slots=True)
 class EventRecord:
-    """An event that fired: its name, time (s) and plain numbers (e.g. energy lost, J)."""
+    """An event that fired: its name, time (s) and plain numbers (e.g. energy lost, J). kind:
+    "event" (the caller's), a hinge's transition ("latch", "latch.contact",
+    "latch.separation", "stop", "stick", "slip"; `hinge` names it) or "assembly"."""
 
     name: str
     t: float
     data: dict = field(default_factory=dict)
+    kind: str = "event"
+    hinge: str | None = None
 
 
 @dataclass(frozen=True)
@@ -121,6 +125,7 @@ class Result:
     dissipated: np.ndarray  # (n, ND) J, work removed since t = 0
     stats: Stats
     events: tuple[EventRecord, ...]
+    hinge_force: np.ndarray  # (n, NH, 2) N force on member b from member a, world frame
     hinge_torque: np.ndarray  # (n, NH) N m lock torque on member b, NaN if free
     peak_loads: dict[str, PeakLoad]  # largest hinge loads over output times and every step
     deployment: Deployment  # latches, deployed or not, dissipated energy (docs/deployment.md)
@@ -134,9 +139,9 @@ class Result:
     @property
     def hinge_loads(self) -> dict[str, HingeLoad]:
         """Each hinge's loads at the output times: force on member b from member a (world
-        frame, N; from the multipliers of rows "<h>.x", "<h>.y"), its magnitude, and the lock
-        torque (N m, NaN while nothing locks the hinge). docs/deployment.md, section 5."""
-        forces = hinge_forces(self.hinge_names, self.constraint_names, self.lam)
+        frame, N; the multipliers of its reaction rows), its magnitude, and the lock torque
+        (N m, NaN while nothing locks the hinge). docs/deployment.md, section 5."""
+        forces = self.hinge_force
         return {h: HingeLoad(forces[:, k, 0], forces[:, k, 1],
                              np.hypot(forces[:, k, 0], forces[:, k, 1]), self.hinge_torque[:, k])
                 for k, h in enumerate(self.hinge_names)}

@@ -14,6 +14,7 @@ re-raised as it was).
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -158,9 +159,9 @@ def _exception(error) -> Exception:
 
 # ---- the result ---------------------------------------------------------------------------------
 
-def _array(pointer, rows: int, width: int | None = None) -> np.ndarray:
-    shape = (rows,) if width is None else (rows, width)
-    size = rows * (1 if width is None else width)
+def _array(pointer, rows: int, *widths: int) -> np.ndarray:
+    shape = (rows, *widths)
+    size = int(np.prod(shape))
     if size == 0:
         return np.zeros(shape)
     return np.frombuffer(ffi().buffer(pointer, 8 * size), dtype=float).reshape(shape).copy()
@@ -213,9 +214,20 @@ def _data(record) -> dict:
     return data
 
 
-def _records(r) -> tuple[EventRecord, ...]:
-    return tuple(EventRecord(_text(r.events[k].name), float(r.events[k].t), _data(r.events[k]))
-                 for k in range(r.n_events))
+@functools.cache
+def _record_kinds() -> dict[int, str]:
+    """enum dep_record_kind (depsim.h) as EventRecord.kind: DEP_RECORD_LATCH_CONTACT is
+    "latch.contact"."""
+    elements = ffi().typeof("enum dep_record_kind").elements
+    return {value: name.removeprefix("DEP_RECORD_").lower().replace("_", ".")
+            for value, name in elements.items()}
+
+
+def _records(module, r) -> tuple[EventRecord, ...]:
+    kinds, hinges = _record_kinds(), module.HINGES
+    return tuple(EventRecord(_text(e.name), float(e.t), _data(e), kinds[e.kind],
+                             hinges[e.hinge] if e.hinge >= 0 else None)
+                 for e in (r.events[k] for k in range(r.n_events)))
 
 
 def _peaks(module, r) -> dict:
@@ -254,7 +266,8 @@ def _result(module, r) -> Result:
         residual_vel=_array(r.residual_vel, n), residual_acc=_array(r.residual_acc, n),
         energy_names=_names(r.energy_names, r.ne), energy=_array(r.energy, n, r.ne),
         dissipator_names=_names(r.dissipator_names, r.nd),
-        dissipated=_array(r.dissipated, n, r.nd), stats=_stats(r.stats), events=_records(r),
+        dissipated=_array(r.dissipated, n, r.nd), stats=_stats(r.stats), events=_records(module, r),
+        hinge_force=_array(r.hinge_force, n, r.nh, 2),
         hinge_torque=_array(r.hinge_torque, n, r.nh), peak_loads=_peaks(module, r),
         deployment=_deployment(module, r.deployment), report_text=_text(r.report))
 

@@ -139,11 +139,17 @@ typedef struct dep_event_response {
     double data_values[DEP_MAX_DATA];
 } dep_event_response;
 
+/* What holds a hinge in a lock row added at run time: the mechanism's latch, hard stop or
+   stuck friction (docs/deployment.md), or an event callback's HingeLock. */
+enum dep_lock { DEP_LOCK_LATCH = 0, DEP_LOCK_STOP = 1, DEP_LOCK_STICK = 2, DEP_LOCK_EVENT = 3 };
+
 /* The active constraint rows and their multipliers, for events that watch them. */
 typedef struct dep_active_rows {
     int nc;
     const char *const *names;
     const double *lam;
+    const int *locks;  /* nc: a lock row's enum dep_lock, -1 for any other row */
+    const int *hinges; /* nc: the hinge a lock row holds (index into hinge_names), else -1 */
 } dep_active_rows;
 
 /* g(t, q, qd) crossing zero in `direction` (+1 rising, -1 falling, 0 both). With
@@ -194,9 +200,19 @@ typedef struct dep_datum {
     char text[DEP_NAME_MAX];   /* DEP_TEXT */
 } dep_datum;
 
+/* What an event record is: an event of the caller's, a transition of a hinge's mode (its name
+   "<hinge>.latch", "<hinge>.latch.contact", ...: docs/deployment.md) or the assembly at t = 0. */
+enum dep_record_kind {
+    DEP_RECORD_EVENT = 0, DEP_RECORD_LATCH = 1, DEP_RECORD_LATCH_CONTACT = 2,
+    DEP_RECORD_LATCH_SEPARATION = 3, DEP_RECORD_STOP = 4, DEP_RECORD_STICK = 5,
+    DEP_RECORD_SLIP = 6, DEP_RECORD_ASSEMBLY = 7
+};
+
 typedef struct dep_event_record {
     char name[DEP_NAME_MAX];
     double t;
+    int kind;  /* enum dep_record_kind */
+    int hinge; /* a transition's hinge (index into hinge_names), else -1 */
     int n_data;
     dep_datum *data;
 } dep_event_record;
@@ -249,6 +265,8 @@ typedef struct dep_result {
     double *dissipated;                              /* n x nd, J since t = 0 */
     char **energy_names;           /* ne: the model's, then "latch.<h>" (compliant springs) */
     char **dissipator_names;       /* nd: the model's, then "friction.<h>", then "latch.<h>" */
+    double *hinge_force;           /* n x nh x 2, N: force on member b from member a (x, y;
+                                      ground frame), NAN for a hinge without reaction rows */
     double *hinge_torque;          /* n x nh, N m lock torque on member b, NAN if free */
     dep_peak *peak_loads;          /* nh: over the output times and every accepted step */
     dep_deployment deployment;

@@ -81,15 +81,13 @@ double dep_energy_loss(const dep_mass *mass, const double *a, const double *b)
     return 0.5 * (dep_mass_quadratic(mass, a) - dep_mass_quadratic(mass, b));
 }
 
-/* plastic_impact: qd+ (qd_new) projected from qd onto the velocity constraints of `cs`; a
-   unilateral row (names[k], signs[k] = +1: may only push with mu >= 0, -1: mu <= 0) whose
-   impulse would pull is released (its name appended to released[], *n_released) and the
-   projection repeated without it. mu: the impulses of cs's remaining rows. */
+/* plastic_impact: the active-set loop of the projection, a pulling stop released at a time
+   (mechanics.h). */
 int dep_plastic_impact(dep_constraints *cs, dep_multipliers *mp, dep_measurement *slots[2],
                        const double *q, const double *qd, double *qd_new, double t, double tol,
-                       const char (*names)[DEP_NAME_MAX], const double *signs, int n_unilateral,
-                       double *scratch, long long *ids, double *mu,
-                       char (*released)[DEP_NAME_MAX], int *n_released, dep_failure *failure)
+                       const int *stops, const double *signs, int n_stops, double *scratch,
+                       long long *ids, double *mu, int *released, int *n_released,
+                       dep_failure *failure)
 {
     *n_released = 0;
     for (;;) {
@@ -101,8 +99,8 @@ int dep_plastic_impact(dep_constraints *cs, dep_multipliers *mp, dep_measurement
         }
         int worst = -1;
         double worst_pull = 0.0;
-        for (int k = 0; k < n_unilateral; ++k) { /* min over the pulling rows, first wins */
-            int row = dep_cs_index(cs, names[k]);
+        for (int k = 0; k < n_stops; ++k) { /* min over the pulling rows, first wins */
+            int row = dep_cs_lock_index(cs, DEP_LOCK_STOP, stops[k]);
             double pull = row >= 0 ? signs[k] * mu[row] : 0.0;
             if (row >= 0 && pull < 0 && (worst < 0 || pull < worst_pull)) {
                 worst = k;
@@ -112,7 +110,7 @@ int dep_plastic_impact(dep_constraints *cs, dep_multipliers *mp, dep_measurement
         if (worst < 0) {
             return DEP_OK;
         }
-        dep_copy_text(released[(*n_released)++], DEP_NAME_MAX, names[worst]);
-        dep_cs_remove(cs, names[worst]);
+        released[(*n_released)++] = stops[worst];
+        dep_cs_remove_lock(cs, DEP_LOCK_STOP, stops[worst]);
     }
 }

@@ -95,11 +95,14 @@ int dep_project_positions(dep_constraints *cs, dep_multipliers *mp, dep_measurem
 int dep_project_velocities(dep_constraints *cs, dep_multipliers *mp, dep_measurement *slots[2],
                            const double *q, double *qd, double t, double tol, double *scratch,
                            long long *ids, double *mu, dep_failure *failure);
+/* qd+ projected onto cs's velocity constraints, the stop rows of the hinges stops[k] unilateral
+   (signs[k] = +1: may only push with mu >= 0, -1: mu <= 0); a stop whose impulse would pull is
+   released (its hinge appended to released[]). mu: the remaining rows' impulses. */
 int dep_plastic_impact(dep_constraints *cs, dep_multipliers *mp, dep_measurement *slots[2],
                        const double *q, const double *qd, double *qd_new, double t, double tol,
-                       const char (*names)[DEP_NAME_MAX], const double *signs, int n_unilateral,
-                       double *scratch, long long *ids, double *mu,
-                       char (*released)[DEP_NAME_MAX], int *n_released, dep_failure *failure);
+                       const int *stops, const double *signs, int n_stops, double *scratch,
+                       long long *ids, double *mu, int *released, int *n_released,
+                       dep_failure *failure);
 double dep_energy_loss(const dep_mass *mass, const double *a, const double *b);
 
 /* ---- settling.c, transitions.c: the state being settled ----------------------------------- */
@@ -115,9 +118,12 @@ typedef struct dep_settle {
     long long new_ids, jacobian_ids;
     dep_event_record *records;
     int n_records, records_capacity, data_capacity;
+    /* the records of the rows that just engaged, and those rows' locks and hinges */
     int n_impacting, impacting[DEP_MAX_ADDED];
-    char impacting_rows[DEP_MAX_ADDED][DEP_NAME_MAX];
-    char (*unilateral)[DEP_NAME_MAX], (*released)[DEP_NAME_MAX];
+    int impacting_locks[DEP_MAX_ADDED], impacting_hinges[DEP_MAX_ADDED];
+    int *stops, *released; /* nh: the hinges at a stop in an impact, those it released */
+    int *stuck;            /* nh: 1 for a hinge stuck before an impact */
+    int *force_rows;       /* 2 nh: each hinge's reaction rows (dep_hinge_force_rows) */
     double *signs;
     int *queue, *starting, queue_capacity; /* starting: g starts at 0 in the new mode */
     dep_constraints cs;
@@ -128,21 +134,19 @@ typedef struct dep_settle {
     dep_failure failure;
 } settle_context;
 
-int dep_settle_row_index(const settle_context *x, const char *name);
-void dep_settle_remove_row(settle_context *x, const dep_hinge_mechanics *h, const char *kind);
-const char *dep_settle_add_lock(settle_context *x, const dep_hinge_mechanics *h, double angle,
-                                const char *kind);
-dep_constraints *dep_settle_constraints(settle_context *x, char (*skip)[DEP_NAME_MAX],
-                                        int n_skip);
+/* Lock rows by their lock (enum dep_lock) and hinge. */
+void dep_settle_remove_row(settle_context *x, const dep_hinge_mechanics *h, int lock);
+void dep_settle_add_lock(settle_context *x, const dep_hinge_mechanics *h, double angle, int lock);
+dep_constraints *dep_settle_constraints(settle_context *x, const int *skip_stick);
 dep_event_record *dep_settle_record(settle_context *x, const dep_hinge_mechanics *h,
-                                    const char *what);
+                                    int kind);
 void dep_settle_put_number(settle_context *x, dep_event_record *r, const char *key, double v);
 void dep_settle_put_text(settle_context *x, dep_event_record *r, const char *key,
                          const char *text);
 void dep_settle_put_kind(settle_context *x, dep_event_record *r, const char *key, int kind,
                          double v);
 int dep_settle_multipliers(settle_context *x);
-int dep_settle_multiplier_of(settle_context *x, const dep_hinge_mechanics *h, const char *kind,
+int dep_settle_multiplier_of(settle_context *x, const dep_hinge_mechanics *h, int lock,
                              double *value);
 void dep_settle_starting(settle_context *x, const dep_hinge_mechanics *h, int kind);
 double dep_settle_slip_direction(double lam, double previous);

@@ -55,8 +55,14 @@ static int settle_init(dep_mechanism *m, dep_arena *arena)
     for (int r = 0; x->records != NULL && data != NULL && r < x->records_capacity; ++r) {
         x->records[r].data = data + (size_t)r * (size_t)x->data_capacity;
     }
-    x->unilateral = dep_bytes(arena, (size_t)m->n_hinges * DEP_NAME_MAX);
-    x->released = dep_bytes(arena, (size_t)m->n_hinges * DEP_NAME_MAX);
+    int **per_hinge[] = {&x->stops, &x->released, &x->stuck};
+    for (int k = 0; k < 3; ++k) {
+        *per_hinge[k] = dep_bytes(arena, (nh + 1) * sizeof(int));
+    }
+    x->force_rows = dep_bytes(arena, (2 * nh + 1) * sizeof *x->force_rows);
+    if (x->force_rows != NULL) {
+        dep_hinge_force_rows(s->model, x->force_rows);
+    }
     x->signs = dep_doubles(arena, (size_t)m->n_hinges);
     double **accel[] = {&x->accel.f, &x->accel.jt, &x->accel.solved};
     for (int k = 0; k < 3; ++k) {

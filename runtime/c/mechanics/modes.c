@@ -87,14 +87,12 @@ double dep_mechanism_rate(dep_mechanism *m, const dep_hinge_mechanics *h, const 
     return m->rates[h->index];
 }
 
-/* The multiplier of row "<hinge>.<suffix>"; non-zero when the row is not active. */
-static int multiplier(const dep_active_rows *rows, const dep_hinge_mechanics *h,
-                      const char *suffix, double *value)
+/* The multiplier of hinge h's row of `lock` (enum dep_lock); non-zero when it is not active. */
+static int multiplier(const dep_active_rows *rows, const dep_hinge_mechanics *h, int lock,
+                      double *value)
 {
-    char name[DEP_NAME_MAX + 16];
-    snprintf(name, sizeof name, "%s.%s", h->name, suffix);
     for (int i = 0; rows != NULL && i < rows->nc; ++i) {
-        if (strcmp(rows->names[i], name) == 0) {
+        if (rows->locks[i] == lock && rows->hinges[i] == h->index) {
             *value = rows->lam[i];
             return 0;
         }
@@ -134,7 +132,7 @@ static int stop_g(void *context, double t, const double *q, const double *qd,
         return 0;
     }
     if (h->stop == (at_max ? DEP_STOP_MAX : DEP_STOP_MIN)) {
-        if (multiplier(rows, h, "stop", &lam) != 0) {
+        if (multiplier(rows, h, DEP_LOCK_STOP, &lam) != 0) {
             return 1;
         }
         *g = sign * lam;
@@ -158,7 +156,7 @@ static int stick_g(void *context, double t, const double *q, const double *qd,
         return 0;
     }
     if (h->stuck) {
-        if (multiplier(rows, h, "stick", &lam) != 0) {
+        if (multiplier(rows, h, DEP_LOCK_STICK, &lam) != 0) {
             return 1;
         }
         *g = h->static_friction - fabs(lam);

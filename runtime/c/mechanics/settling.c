@@ -8,34 +8,31 @@
 
 #include "mechanics.h"
 
-int dep_settle_row_index(const settle_context *x, const char *name)
+/* The context's row that locks hinge h by `lock` (enum dep_lock), or -1. */
+static int row_index(const settle_context *x, const dep_hinge_mechanics *h, int lock)
 {
     for (int i = 0; i < x->n_rows; ++i) {
-        if (strcmp(x->rows[i].name, name) == 0) {
+        if (x->rows[i].lock == lock && x->rows[i].hinge == h->index) {
             return i;
         }
     }
     return -1;
 }
 
-void dep_settle_remove_row(settle_context *x, const dep_hinge_mechanics *h, const char *kind)
+void dep_settle_remove_row(settle_context *x, const dep_hinge_mechanics *h, int lock)
 {
-    char name[DEP_NAME_MAX + 16];
-    snprintf(name, sizeof name, "%s.%s", h->name, kind);
-    int i = dep_settle_row_index(x, name);
+    int i = row_index(x, h, lock);
     if (i >= 0) {
         memmove(&x->rows[i], &x->rows[i + 1], (size_t)(x->n_rows - i - 1) * sizeof *x->rows);
         x->n_rows--;
     }
 }
 
-/* A lock row "<h>.<kind>" at `angle` (replacing one of that name in place, as a dict does). */
-const char *dep_settle_add_lock(settle_context *x, const dep_hinge_mechanics *h, double angle,
-                            const char *kind)
+/* A lock row "<h>.<lock's name>" at `angle` (replacing h's row of that lock in place, as a
+   dict does). */
+void dep_settle_add_lock(settle_context *x, const dep_hinge_mechanics *h, double angle, int lock)
 {
-    char name[DEP_NAME_MAX + 16];
-    snprintf(name, sizeof name, "%s.%s", h->name, kind);
-    int i = dep_settle_row_index(x, name);
+    int i = row_index(x, h, lock);
     if (i < 0) {
         i = x->n_rows < DEP_MAX_ADDED ? x->n_rows++ : DEP_MAX_ADDED - 1;
     }
@@ -43,37 +40,40 @@ const char *dep_settle_add_lock(settle_context *x, const dep_hinge_mechanics *h,
     memset(r, 0, sizeof *r);
     r->id = --x->new_ids;
     r->kind = DEP_ROW_HINGE_LOCK;
+    r->lock = lock;
     r->hinge = h->index;
     r->angle = angle;
-    dep_copy_text(r->name, sizeof r->name, name);
+    snprintf(r->name, sizeof r->name, "%.*s.%s", DEP_NAME_MAX - 8, h->name, dep_lock_name(lock));
     dep_copy_text(r->joint, sizeof r->joint, h->name);
     x->added = 1;
-    return r->name;
 }
 
-/* The context's rows as a constraint set, without the rows named in skip[]. */
-dep_constraints *dep_settle_constraints(settle_context *x, char (*skip)[DEP_NAME_MAX], int n_skip)
+/* The context's rows as a constraint set, without the stick rows of the hinges flagged in
+   skip_stick (nh flags, or NULL). */
+dep_constraints *dep_settle_constraints(settle_context *x, const int *skip_stick)
 {
     dep_added_row kept[DEP_MAX_ADDED];
     int n = 0;
     for (int i = 0; i < x->n_rows; ++i) {
-        int skipped = 0;
-        for (int k = 0; k < n_skip; ++k) {
-            skipped |= strcmp(x->rows[i].name, skip[k]) == 0;
-        }
-        if (!skipped) {
-            kept[n++] = x->rows[i];
+        const dep_added_row *r = &x->rows[i];
+        if (skip_stick == NULL || r->lock != DEP_LOCK_STICK || !skip_stick[r->hinge]) {
+            kept[n++] = *r;
         }
     }
     dep_cs_assign(&x->cs, kept, n);
     return &x->cs;
 }
 
-dep_event_record *dep_settle_record(settle_context *x, const dep_hinge_mechanics *h, const char *what)
+/* A record of hinge h's transition `kind` (enum dep_record_kind), named "<h>.<transition>". */
+dep_event_record *dep_settle_record(settle_context *x, const dep_hinge_mechanics *h, int kind)
 {
+    static const char *const TRANSITIONS[DEP_RECORD_SLIP + 1] = {
+        "", "latch", "latch.contact", "latch.separation", "stop", "stick", "slip"};
     dep_event_record *r = &x->records[x->n_records < x->records_capacity ? x->n_records++
                                                                           : x->n_records - 1];
-    snprintf(r->name, sizeof r->name, "%.*s.%s", DEP_NAME_MAX - 32, h->name, what);
+    snprintf(r->name, sizeof r->name, "%.*s.%s", DEP_NAME_MAX - 32, h->name, TRANSITIONS[kind]);
+    r->kind = kind;
+    r->hinge = h->index;
     r->n_data = 0;
     dep_datum_text(r->data, &r->n_data, x->data_capacity, "hinge", h->name);
     return r;
@@ -101,24 +101,20 @@ void dep_settle_put_kind(settle_context *x, dep_event_record *r, const char *key
 /* {row name: lambda} at the context's state and modes (acceleration pass from zero). */
 int dep_settle_multipliers(settle_context *x)
 {
-    dep_constraints *cs = dep_settle_constraints(x, NULL, 0);
+    dep_constraints *cs = dep_settle_constraints(x, NULL);
     dep_pass_report report;
     dep_cs_jacobian(cs, x->q, x->t, x->scratch);
     memset(x->lam, 0, (size_t)cs->nc * sizeof *x->lam);
-    x->view.nc = cs->nc;
-    x->view.names = cs->row_names;
-    x->view.lam = x->lam;
+    x->view = dep_cs_view(cs, x->lam);
     return dep_acceleration_pass(&x->accel, x->q, x->qd, x->t, x->scratch, ++x->jacobian_ids,
                                  x->lam, NULL, x->m->tol, &report, &x->failure);
 }
 
-int dep_settle_multiplier_of(settle_context *x, const dep_hinge_mechanics *h, const char *kind,
-                         double *value)
+int dep_settle_multiplier_of(settle_context *x, const dep_hinge_mechanics *h, int lock,
+                             double *value)
 {
-    char name[DEP_NAME_MAX + 16];
     int status = dep_settle_multipliers(x);
-    snprintf(name, sizeof name, "%s.%s", h->name, kind);
-    *value = status == DEP_OK ? x->lam[dep_cs_index(&x->cs, name)] : NAN;
+    *value = status == DEP_OK ? x->lam[dep_cs_lock_index(&x->cs, lock, h->index)] : NAN;
     return status;
 }
 

@@ -16,13 +16,22 @@
 
 /* ---- the transitions ---------------------------------------------------------------------- */
 
+/* Hinge h's row of `lock` has just engaged (record r): its impact is due. */
+static void impacting(settle_context *x, const dep_hinge_mechanics *h, int lock,
+                      const dep_event_record *r)
+{
+    x->impacting_locks[x->n_impacting] = lock;
+    x->impacting_hinges[x->n_impacting] = h->index;
+    x->impacting[x->n_impacting++] = (int)(r - x->records);
+}
+
 /* open -> latched (rigid: lock row, impact) or contact (compliant); contact <-> apart. */
 static int latch(settle_context *x, dep_hinge_mechanics *h, int kind, int *follow, int *n_follow)
 {
     double rate = dep_mechanism_rate(x->m, h, x->q, x->qd);
     (void)kind, (void)follow, (void)n_follow;
     if (h->latch_state == DEP_OPEN) {
-        dep_event_record *r = dep_settle_record(x, h, "latch");
+        dep_event_record *r = dep_settle_record(x, h, DEP_RECORD_LATCH);
         dep_settle_put_number(x, r, "angle", h->latch);
         dep_settle_put_number(x, r, "rate", rate);
         dep_settle_put_kind(x, r, "rigid", DEP_BOOL, !h->compliant);
@@ -33,19 +42,19 @@ static int latch(settle_context *x, dep_hinge_mechanics *h, int kind, int *follo
             dep_settle_put_kind(x, r, "impact_energy_loss", DEP_NONE, 0.0);
             return DEP_OK;
         }
-        dep_settle_remove_row(x, h, "stick");
-        dep_settle_remove_row(x, h, "stop");
+        dep_settle_remove_row(x, h, DEP_LOCK_STICK);
+        dep_settle_remove_row(x, h, DEP_LOCK_STOP);
         h->stuck = 0;
         h->stop = DEP_STOP_NONE;
         h->latch_state = DEP_LATCHED;
-        dep_copy_text(x->impacting_rows[x->n_impacting], DEP_NAME_MAX,
-                      dep_settle_add_lock(x, h, h->latch, "latch"));
-        x->impacting[x->n_impacting++] = (int)(r - x->records);
+        dep_settle_add_lock(x, h, h->latch, DEP_LOCK_LATCH);
+        impacting(x, h, DEP_LOCK_LATCH, r);
     } else if (h->latch_state == DEP_CONTACT || h->latch_state == DEP_APART) {
         h->latch_state = h->latch_state == DEP_CONTACT ? DEP_APART : DEP_CONTACT;
         dep_settle_starting(x, h, DEP_KIND_LATCH);
-        dep_event_record *r = dep_settle_record(x, h, h->latch_state == DEP_APART ? "latch.separation"
-                                                                        : "latch.contact");
+        int kind = h->latch_state == DEP_APART ? DEP_RECORD_LATCH_SEPARATION
+                                                : DEP_RECORD_LATCH_CONTACT;
+        dep_event_record *r = dep_settle_record(x, h, kind);
         dep_settle_put_number(x, r, "rate", rate);
     }
     return DEP_OK;
@@ -58,10 +67,10 @@ static int stop(settle_context *x, dep_hinge_mechanics *h, int kind, int *follow
     const char *limit = at == DEP_STOP_MAX ? "max" : "min";
     double angle = at == DEP_STOP_MAX ? h->stop_max : h->stop_min;
     if (h->stop == at) {
-        dep_settle_remove_row(x, h, "stop");
+        dep_settle_remove_row(x, h, DEP_LOCK_STOP);
         h->stop = DEP_STOP_NONE;
         dep_settle_starting(x, h, kind);
-        dep_event_record *r = dep_settle_record(x, h, "stop");
+        dep_event_record *r = dep_settle_record(x, h, DEP_RECORD_STOP);
         dep_settle_put_text(x, r, "limit", limit);
         dep_settle_put_number(x, r, "angle", angle);
         dep_settle_put_text(x, r, "action", "release");
@@ -71,26 +80,26 @@ static int stop(settle_context *x, dep_hinge_mechanics *h, int kind, int *follow
         }
         return DEP_OK;
     }
-    dep_settle_remove_row(x, h, "stick");
+    dep_settle_remove_row(x, h, DEP_LOCK_STICK);
     h->stuck = 0;
     h->stop = at;
-    dep_copy_text(x->impacting_rows[x->n_impacting], DEP_NAME_MAX, dep_settle_add_lock(x, h, angle, "stop"));
-    dep_event_record *r = dep_settle_record(x, h, "stop");
+    dep_settle_add_lock(x, h, angle, DEP_LOCK_STOP);
+    dep_event_record *r = dep_settle_record(x, h, DEP_RECORD_STOP);
     dep_settle_put_text(x, r, "limit", limit);
     dep_settle_put_number(x, r, "angle", angle);
     dep_settle_put_text(x, r, "action", "contact");
     dep_settle_put_number(x, r, "rate", dep_mechanism_rate(x->m, h, x->q, x->qd));
-    x->impacting[x->n_impacting++] = (int)(r - x->records);
+    impacting(x, h, DEP_LOCK_STOP, r);
     return DEP_OK;
 }
 
 static void slip(settle_context *x, dep_hinge_mechanics *h, double lam)
 {
-    dep_settle_remove_row(x, h, "stick");
+    dep_settle_remove_row(x, h, DEP_LOCK_STICK);
     h->stuck = 0;
     h->direction = dep_settle_slip_direction(lam, h->direction);
     dep_settle_starting(x, h, DEP_KIND_STICK);
-    dep_event_record *r = dep_settle_record(x, h, "slip");
+    dep_event_record *r = dep_settle_record(x, h, DEP_RECORD_SLIP);
     dep_settle_put_number(x, r, "direction", h->direction);
     dep_settle_put_number(x, r, "torque", -lam);
 }
@@ -106,7 +115,7 @@ static int stick(settle_context *x, dep_hinge_mechanics *h, int kind, int *follo
         return DEP_OK;
     }
     if (h->stuck) {
-        int status = dep_settle_multiplier_of(x, h, "stick", &lam);
+        int status = dep_settle_multiplier_of(x, h, DEP_LOCK_STICK, &lam);
         if (status == DEP_OK) {
             slip(x, h, lam);
         }
@@ -116,19 +125,19 @@ static int stick(settle_context *x, dep_hinge_mechanics *h, int kind, int *follo
     if (fabs(rate) > REST * x->m->tol * fmax(1.0, dep_max_abs(x->qd, x->nq))) {
         /* not at rest (its rate changed sign in a jump): it slips the way it moves */
         h->direction = rate > 0 ? 1.0 : -1.0;
-        dep_event_record *r = dep_settle_record(x, h, "slip");
+        dep_event_record *r = dep_settle_record(x, h, DEP_RECORD_SLIP);
         dep_settle_put_number(x, r, "direction", h->direction);
         return DEP_OK;
     }
     double theta = dep_mechanism_angle(x->m, h, x->q);
-    dep_settle_add_lock(x, h, theta, "stick");
+    dep_settle_add_lock(x, h, theta, DEP_LOCK_STICK);
     h->stuck = 1; /* the trial: friction is carried by the lock row's multiplier */
-    int status = dep_settle_multiplier_of(x, h, "stick", &lam);
+    int status = dep_settle_multiplier_of(x, h, DEP_LOCK_STICK, &lam);
     if (status != DEP_OK) {
         return status;
     }
     if (fabs(lam) <= h->static_friction) {
-        dep_event_record *r = dep_settle_record(x, h, "stick");
+        dep_event_record *r = dep_settle_record(x, h, DEP_RECORD_STICK);
         dep_settle_put_number(x, r, "angle", theta);
         dep_settle_put_number(x, r, "torque", -lam);
         return DEP_OK;
@@ -150,15 +159,11 @@ static void impact_records(settle_context *x, const dep_constraints *cs, double 
     const dep_model *model = x->system->model;
     for (int i = 0; i < x->n_impacting; ++i) {
         dep_event_record *r = &x->records[x->impacting[i]];
-        int row = dep_cs_index(cs, x->impacting_rows[i]);
+        int row = dep_cs_lock_index(cs, x->impacting_locks[i], x->impacting_hinges[i]);
         dep_settle_put_number(x, r, "impulse", -(row >= 0 ? x->mu[row] : 0.0));
         dep_settle_put_number(x, r, "impact_energy_loss", i == 0 ? loss : 0.0);
-        for (int k = 0; k < model->nh; ++k) {
-            char name[DEP_NAME_MAX + 8];
-            snprintf(name, sizeof name, "%s.x", model->hinge_names[k]);
-            int ix = dep_cs_index(cs, name);
-            snprintf(name, sizeof name, "%s.y", model->hinge_names[k]);
-            int iy = dep_cs_index(cs, name);
+        for (int k = 0; k < model->nh; ++k) { /* (the model's rows come first in cs) */
+            int ix = x->force_rows[2 * k], iy = x->force_rows[2 * k + 1];
             dep_datum *d = dep_datum_add(r->data, &r->n_data, x->data_capacity,
                                          "joint_impulses", model->hinge_names[k]);
             if (d != NULL) {
@@ -173,31 +178,25 @@ static void impact_records(settle_context *x, const dep_constraints *cs, double 
 /* The stops whose impulse would have pulled, released by the impact. */
 static void release_stops(settle_context *x, int n_released)
 {
-    dep_mechanism *m = x->m;
     for (int k = 0; k < n_released; ++k) {
-        for (int i = 0; i < m->n_hinges; ++i) {
-            dep_hinge_mechanics *h = &m->hinges[i];
-            char name[DEP_NAME_MAX + 8];
-            snprintf(name, sizeof name, "%s.stop", h->name);
-            if (h->stop != DEP_STOP_NONE && strcmp(name, x->released[k]) == 0) {
-                dep_settle_remove_row(x, h, "stop");
-                dep_event_record *r = dep_settle_record(x, h, "stop");
-                dep_settle_put_text(x, r, "limit", h->stop == DEP_STOP_MAX ? "max" : "min");
-                dep_settle_put_text(x, r, "action", "release");
-                dep_settle_put_text(x, r, "cause", "impact");
-                h->stop = DEP_STOP_NONE;
-            }
+        dep_hinge_mechanics *h = &x->m->hinges[x->released[k]];
+        if (h->stop != DEP_STOP_NONE) {
+            dep_settle_remove_row(x, h, DEP_LOCK_STOP);
+            dep_event_record *r = dep_settle_record(x, h, DEP_RECORD_STOP);
+            dep_settle_put_text(x, r, "limit", h->stop == DEP_STOP_MAX ? "max" : "min");
+            dep_settle_put_text(x, r, "action", "release");
+            dep_settle_put_text(x, r, "cause", "impact");
+            h->stop = DEP_STOP_NONE;
         }
     }
 }
 
 /* After the impact every stick-slip hinge that is neither latched nor at a stop is classified
-   again from its new rate: the hinges that stuck before it (rows skip[], released for the
-   impact) and the slipping ones alike. Moving, it slips in the direction of its rate (a
+   again from its new rate: the hinges that stuck before it (x->stuck, their rows released for
+   the impact) and the slipping ones alike. Moving, it slips in the direction of its rate (a
    "slip" record when that is a change); at rest it is due for the stick-or-slip test
    (follow[]: hinge * 4 + kind). */
-static void reclassify(settle_context *x, char (*skip)[DEP_NAME_MAX], int n_skip, int *follow,
-                       int *n_follow)
+static void reclassify(settle_context *x, int *follow, int *n_follow)
 {
     dep_mechanism *m = x->m;
     double at_rest = REST * m->tol * fmax(1.0, dep_max_abs(x->qd, x->nq));
@@ -206,17 +205,12 @@ static void reclassify(settle_context *x, char (*skip)[DEP_NAME_MAX], int n_skip
         if (!h->has_static || h->latch_state == DEP_LATCHED || h->stop != DEP_STOP_NONE) {
             continue;
         }
-        char name[DEP_NAME_MAX + 8];
-        snprintf(name, sizeof name, "%s.stick", h->name);
-        int was_stuck = 0;
-        for (int k = 0; k < n_skip && !was_stuck; ++k) {
-            was_stuck = strcmp(name, skip[k]) == 0;
-        }
+        int was_stuck = x->stuck[i];
         if (h->stuck && !was_stuck) {
             continue; /* stuck by a row that took part in the impact: still at rest */
         }
         if (was_stuck) {
-            dep_settle_remove_row(x, h, "stick");
+            dep_settle_remove_row(x, h, DEP_LOCK_STICK);
             h->stuck = 0;
         }
         double rate = dep_mechanism_rate(m, h, x->q, x->qd);
@@ -227,7 +221,7 @@ static void reclassify(settle_context *x, char (*skip)[DEP_NAME_MAX], int n_skip
         double direction = rate > 0 ? 1.0 : -1.0;
         if (was_stuck || direction != h->direction) {
             h->direction = direction;
-            dep_event_record *r = dep_settle_record(x, h, "slip");
+            dep_event_record *r = dep_settle_record(x, h, DEP_RECORD_SLIP);
             dep_settle_put_number(x, r, "direction", h->direction);
             dep_settle_put_text(x, r, "cause", "impact");
         }
@@ -238,25 +232,20 @@ static void reclassify(settle_context *x, char (*skip)[DEP_NAME_MAX], int n_skip
 int dep_settle_impact(settle_context *x, int *follow, int *n_follow)
 {
     dep_mechanism *m = x->m;
-    char skip[DEP_MAX_ADDED][DEP_NAME_MAX];
-    int n_skip = 0, n_unilateral = 0, n_released = 0;
+    int n_stops = 0, n_released = 0;
     for (int i = 0; i < m->n_hinges; ++i) {
         dep_hinge_mechanics *h = &m->hinges[i];
-        if (is_stuck(h) && n_skip < DEP_MAX_ADDED) {
-            snprintf(skip[n_skip++], DEP_NAME_MAX, "%.*s.stick", DEP_NAME_MAX - 8, h->name);
-        }
+        x->stuck[i] = is_stuck(h);
         if (h->stop != DEP_STOP_NONE) {
-            snprintf(x->unilateral[n_unilateral], DEP_NAME_MAX, "%.*s.stop", DEP_NAME_MAX - 8,
-                     h->name);
-            x->signs[n_unilateral++] = h->stop == DEP_STOP_MAX ? 1.0 : -1.0;
+            x->stops[n_stops] = i;
+            x->signs[n_stops++] = h->stop == DEP_STOP_MAX ? 1.0 : -1.0;
         }
     }
-    dep_constraints *cs = dep_settle_constraints(x, skip, n_skip);
+    dep_constraints *cs = dep_settle_constraints(x, x->stuck);
     dep_measurement *slots[2] = {&x->slots[2], &x->slots[3]};
     int status = dep_plastic_impact(cs, &x->mp, slots, x->q, x->qd, x->qd_new, x->t, m->tol,
-                                    (const char (*)[DEP_NAME_MAX])x->unilateral, x->signs,
-                                    n_unilateral, x->scratch, &x->jacobian_ids, x->mu,
-                                    x->released, &n_released, &x->failure);
+                                    x->stops, x->signs, n_stops, x->scratch, &x->jacobian_ids,
+                                    x->mu, x->released, &n_released, &x->failure);
     if (status != DEP_OK) {
         return status;
     }
@@ -264,7 +253,7 @@ int dep_settle_impact(settle_context *x, int *follow, int *n_follow)
     memcpy(x->qd, x->qd_new, (size_t)x->nq * sizeof *x->qd);
     impact_records(x, cs, loss);
     release_stops(x, n_released);
-    reclassify(x, skip, n_skip, follow, n_follow);
+    reclassify(x, follow, n_follow);
     return DEP_OK;
 }
 
@@ -272,7 +261,7 @@ int dep_settle_impact(settle_context *x, int *follow, int *n_follow)
    located event's error; the kinetic energy removed is that small too and not recorded). */
 int dep_settle_project(settle_context *x)
 {
-    dep_constraints *cs = dep_settle_constraints(x, NULL, 0);
+    dep_constraints *cs = dep_settle_constraints(x, NULL);
     dep_measurement *own[2] = {&x->slots[0], &x->slots[1]}, *plain[2] = {&x->slots[2],
                                                                           &x->slots[3]};
     int status = dep_project_positions(cs, &x->mp, own, x->q, x->t, x->m->tol, x->scratch,

@@ -14,7 +14,7 @@
 
 #define CONSISTENCY 1e3 /* a (re)start state may violate its constraints by this many tols */
 
-static const char *const LOCK_ROWS[4] = {"latch", "stop", "stick", "lock"};
+static const char *const LOCK_NAMES[4] = {"latch", "stop", "stick", "lock"}; /* enum dep_lock */
 
 /* Each hinge's lock-row columns, from the model's HINGE_JACOBIAN_ROWS/COLS. */
 static int lock_patterns(dep_constraints *cs, dep_arena *arena)
@@ -121,6 +121,8 @@ int dep_constraints_init(dep_constraints *cs, const dep_system *system, dep_aren
     for (int i = 0; i < DEP_MAX_ADDED; ++i) {
         cs->added[i].row = dep_doubles(arena, nq);
     }
+    cs->row_locks = dep_bytes(arena, (size_t)cs->capacity * sizeof *cs->row_locks);
+    cs->row_hinges = dep_bytes(arena, (size_t)cs->capacity * sizeof *cs->row_hinges);
     cs->row_start = dep_bytes(arena, ((size_t)cs->capacity + 1) * sizeof *cs->row_start);
     cs->row_cols = dep_bytes(arena, DEP_JACOBIAN_SIZE(model) * sizeof *cs->row_cols);
     if (arena->failed || lock_patterns(cs, arena) != DEP_OK) {
@@ -129,6 +131,7 @@ int dep_constraints_init(dep_constraints *cs, const dep_system *system, dep_aren
     for (int i = 0; i < model->nc; ++i) {
         cs->row_names[i] = model->constraint_names[i];
         cs->row_joints[i] = model->constraint_joints[i];
+        cs->row_locks[i] = cs->row_hinges[i] = -1;
     }
     refresh_pattern(cs);
     return DEP_OK;
@@ -266,43 +269,24 @@ void dep_cs_describe(const dep_constraints *cs, int row, char *joint_text, size_
 
 /* ---- changing the set after an event (ConstraintSet.without / with_rows) --------------- */
 
-/* The kind (0 latch, 1 stop, 2 stick, 3 lock) of a row named "<hinge>.<kind>", its hinge in
-   *hinge; -1 (and -1) for any other name. */
-static int lock_row(const dep_model *model, const char *name, int *hinge)
-{
-    for (int k = 0; k < model->nh; ++k) {
-        size_t length = strlen(model->hinge_names[k]);
-        if (strncmp(name, model->hinge_names[k], length) != 0 || name[length] != '.') {
-            continue;
-        }
-        for (int kind = 0; kind < 4; ++kind) {
-            if (strcmp(name + length + 1, LOCK_ROWS[kind]) == 0) {
-                *hinge = k;
-                return kind;
-            }
-        }
-    }
-    *hinge = -1;
-    return -1;
-}
-
 static void refresh_names(dep_constraints *cs)
 {
     cs->nc = cs->nc_module + cs->n_added;
     for (int i = 0; i < cs->n_added; ++i) {
         cs->row_names[cs->nc_module + i] = cs->added[i].name;
         cs->row_joints[cs->nc_module + i] = cs->added[i].joint;
-        cs->lock_kind[i] = lock_row(cs->system->model, cs->added[i].name,
-                                    &cs->lock_hinge[i]);
+        cs->row_locks[cs->nc_module + i] = cs->added[i].lock;
+        cs->row_hinges[cs->nc_module + i] = cs->added[i].lock >= 0 ? cs->added[i].hinge : -1;
     }
     refresh_pattern(cs);
 }
 
-int dep_cs_remove(dep_constraints *cs, const char *name)
+/* Without the added rows for which `removed` is 1 (the others keep their order). */
+static void remove_rows(dep_constraints *cs, const int *removed)
 {
     int kept = 0;
     for (int i = 0; i < cs->n_added; ++i) {
-        if (strcmp(cs->added[i].name, name) == 0) {
+        if (removed[i]) {
             continue;
         }
         if (kept != i) { /* keep each row's storage: swap the structs */
@@ -314,7 +298,30 @@ int dep_cs_remove(dep_constraints *cs, const char *name)
     }
     cs->n_added = kept;
     refresh_names(cs);
+}
+
+int dep_cs_remove(dep_constraints *cs, const char *name)
+{
+    int removed[DEP_MAX_ADDED];
+    for (int i = 0; i < cs->n_added; ++i) {
+        removed[i] = strcmp(cs->added[i].name, name) == 0;
+    }
+    remove_rows(cs, removed);
     return DEP_OK;
+}
+
+void dep_cs_remove_lock(dep_constraints *cs, int lock, int hinge)
+{
+    int removed[DEP_MAX_ADDED];
+    for (int i = 0; i < cs->n_added; ++i) {
+        removed[i] = cs->added[i].lock == lock && cs->added[i].hinge == hinge;
+    }
+    remove_rows(cs, removed);
+}
+
+const char *dep_lock_name(int lock)
+{
+    return LOCK_NAMES[lock];
 }
 
 /* Append a copy of `row` (its id kept, or a new one when it has none). */
@@ -360,13 +367,15 @@ int dep_cs_prepare_row(const dep_constraints *cs, const dep_row *row, dep_added_
     memset(out, 0, sizeof *out);
     out->kind = row->kind;
     out->hinge = row->hinge;
+    out->lock = row->kind == DEP_ROW_HINGE_LOCK ? DEP_LOCK_EVENT : -1;
     out->angle = row->angle;
     out->value = row->value;
     out->row = (double *)row->row;
     if (row->name[0] != '\0') {
         dep_copy_text(out->name, sizeof out->name, row->name);
     } else {
-        snprintf(out->name, sizeof out->name, "%.*s.lock", DEP_NAME_MAX - 6, hinge);
+        snprintf(out->name, sizeof out->name, "%.*s.%s", DEP_NAME_MAX - 6, hinge,
+                 LOCK_NAMES[DEP_LOCK_EVENT]);
     }
     dep_copy_text(out->joint, sizeof out->joint, row->joint[0] != '\0' ? row->joint : hinge);
     return DEP_OK;
@@ -388,6 +397,22 @@ int dep_cs_index(const dep_constraints *cs, const char *name)
         }
     }
     return -1;
+}
+
+int dep_cs_lock_index(const dep_constraints *cs, int lock, int hinge)
+{
+    for (int i = cs->nc_module; i < cs->nc; ++i) {
+        if (cs->row_locks[i] == lock && cs->row_hinges[i] == hinge) {
+            return i;
+        }
+    }
+    return -1;
+}
+
+dep_active_rows dep_cs_view(const dep_constraints *cs, const double *lam)
+{
+    dep_active_rows view = {cs->nc, cs->row_names, lam, cs->row_locks, cs->row_hinges};
+    return view;
 }
 
 /* The module's rows followed by copies of rows[0..n) (a new ConstraintSet). */
@@ -456,7 +481,7 @@ int dep_check_consistency(dep_constraints *cs, double t, const double *q, const 
 /* ---- the lock rows' torques --------------------------------------------------------------- */
 
 /* T_h = -lambda of each hinge's active lock rows (nh; the rows added at run time), NAN where
-   none is active: summed by kind in LOCK_ROWS order, then in row order. */
+   none is active: summed by lock kind (enum dep_lock), then in row order. */
 void dep_lock_torques(const dep_model *model, const dep_constraints *cs, const double *lam,
                       double *torques)
 {
@@ -465,8 +490,8 @@ void dep_lock_torques(const dep_model *model, const dep_constraints *cs, const d
     }
     for (int kind = 0; kind < 4; ++kind) {
         for (int a = 0; a < cs->n_added; ++a) {
-            int i = cs->nc_module + a, k = cs->lock_hinge[a];
-            if (cs->lock_kind[a] == kind && isfinite(lam[i])) {
+            int i = cs->nc_module + a, k = cs->row_hinges[i];
+            if (cs->row_locks[i] == kind && isfinite(lam[i])) {
                 torques[k] = isnan(torques[k]) ? -lam[i] : torques[k] - lam[i];
             }
         }

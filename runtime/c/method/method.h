@@ -30,6 +30,7 @@
 typedef struct dep_added_row {
     long long id; /* identity of a row, kept while it is active */
     int kind, hinge;
+    int lock;     /* a lock row's enum dep_lock, else -1 */
     char name[DEP_NAME_MAX], joint[DEP_NAME_MAX];
     double angle, value;
     double *row; /* nq, DEP_ROW_LINEAR */
@@ -52,8 +53,7 @@ typedef struct dep_constraints {
     long long pattern;         /* changes whenever row_start and row_cols do */
     int *lock_start;           /* nh + 1: hinge h's columns are lock_cols[lock_start[h]..) */
     const int *lock_cols;
-    int lock_kind[DEP_MAX_ADDED], lock_hinge[DEP_MAX_ADDED]; /* each added row's, by its name
-                                                                (dep_lock_row) */
+    int *row_locks, *row_hinges; /* capacity: each active row's lock and hinge, or -1 */
 } dep_constraints;
 
 /* Doubles that hold a Jacobian of any active set: Phi_q's non-zeros and every added row's. */
@@ -87,6 +87,13 @@ int dep_cs_prepare_row(const dep_constraints *cs, const dep_row *row, dep_added_
                        dep_error *error);
 int dep_cs_add_row(dep_constraints *cs, const dep_added_row *row, dep_error *error);
 int dep_cs_index(const dep_constraints *cs, const char *name); /* -1 when not active */
+/* The active row that locks `hinge` by `lock` (enum dep_lock), or -1; and its removal. */
+int dep_cs_lock_index(const dep_constraints *cs, int lock, int hinge);
+void dep_cs_remove_lock(dep_constraints *cs, int lock, int hinge);
+/* "latch", "stop", "stick", "lock": a lock row's name is "<hinge>.<this>". */
+const char *dep_lock_name(int lock);
+/* The active rows as an event function sees them, with multipliers lam. */
+dep_active_rows dep_cs_view(const dep_constraints *cs, const double *lam);
 void dep_cs_assign(dep_constraints *cs, const dep_added_row *rows, int n);
 int dep_check_consistency(dep_constraints *cs, double t, const double *q, const double *qd,
                           double tol, const char *stage, double *scratch, dep_error *error);

@@ -274,7 +274,7 @@ static int record(assembly *x, dep_run *run)
             }
         }
     }
-    return dep_run_add_record(run, "assembly", 0.0, data, n);
+    return dep_run_add_record(run, "assembly", DEP_RECORD_ASSEMBLY, -1, 0.0, data, n);
 }
 
 /* The velocities: least squares of minimum norm for the free rates (every tree joint whose

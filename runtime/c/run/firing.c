@@ -43,7 +43,8 @@ int dep_run_start(dep_run *run, const double *q0, const double *qd0)
         status = dep_run_apply_change(run, &run->change, &here);
         for (int k = 0; status == DEP_OK && k < run->change.n_records; ++k) {
             const dep_event_record *r = &run->change.records[k];
-            status = dep_run_add_record(run, r->name, 0.0, r->data, r->n_data);
+            status = dep_run_add_record(run, r->name, r->kind, r->hinge, 0.0, r->data,
+                                        r->n_data);
         }
     }
     if (status == DEP_OK) {
@@ -110,7 +111,7 @@ static int user_change(dep_run *run, const dep_event *event, double t, const dep
 static int event_value(dep_run *run, const dep_event *event, double t, const double *q,
                        const double *qd, const double *lam, double *g)
 {
-    dep_active_rows rows = {run->cs.nc, run->cs.row_names, lam};
+    dep_active_rows rows = dep_cs_view(&run->cs, lam);
     return dep_event_value(event, t, q, qd, &rows, g, run->error);
 }
 
@@ -243,9 +244,7 @@ static int dense_output(void *context, double t, double *q, double *qd, dep_acti
     if (status == DEP_PASS_FAILED) {
         return dep_run_pass_error(run, &failure, t);
     }
-    rows->nc = run->cs.nc;
-    rows->names = run->cs.row_names;
-    rows->lam = run->dense_lam;
+    *rows = dep_cs_view(&run->cs, run->dense_lam);
     return DEP_OK;
 }
 

@@ -15,7 +15,7 @@
 static double row_bytes(const dep_system *system)
 {
     const dep_model *m = system->model;
-    return 8.0 * (1 + 2 * m->nq + 3 * m->nh + m->nout + 3 + system->ne + system->nd);
+    return 8.0 * (1 + 2 * m->nq + 5 * m->nh + m->nout + 3 + system->ne + system->nd);
 }
 
 double dep_max_output_times(const dep_system *system)
@@ -85,7 +85,12 @@ int dep_recorder_init(dep_recorder *rec, const dep_system *system, dep_mechanism
     rec->t = dep_doubles(arena, rows);
     rec->outputs = dep_doubles(arena, rows * (size_t)m->nout);
     rec->work = dep_doubles(arena, rows * (size_t)system->nd);
+    rec->force = dep_doubles(arena, rows * 2 * (size_t)m->nh);
     rec->torque = dep_doubles(arena, rows * (size_t)m->nh);
+    rec->force_rows = dep_bytes(arena, (2 * (size_t)m->nh + 1) * sizeof *rec->force_rows);
+    if (rec->force_rows != NULL) {
+        dep_hinge_force_rows(m, rec->force_rows);
+    }
     rec->lam_start = dep_bytes(arena, (rows + 1) * sizeof *rec->lam_start);
     if (!rec->outputs_only) { /* (the columns the outputs' rows leave nought: not touched) */
         rec->q = dep_doubles(arena, rows * nq);
@@ -189,6 +194,12 @@ int dep_record(dep_recorder *rec, double t, const double *q, const double *qd, c
     rec->t[row] = t;
     m->outputs(q, qd, t, s->p, rec->outputs + row * (size_t)m->nout);
     memcpy(rec->work + row * (size_t)s->nd, work, (size_t)s->nd * sizeof(double));
+    for (int k = 0; k < m->nh; ++k) { /* (the model's rows come first in cs) */
+        int ix = rec->force_rows[2 * k], iy = rec->force_rows[2 * k + 1];
+        double *force = rec->force + (row * (size_t)m->nh + (size_t)k) * 2;
+        force[0] = ix >= 0 && iy >= 0 ? lam[ix] : NAN;
+        force[1] = ix >= 0 && iy >= 0 ? lam[iy] : NAN;
+    }
     if (rec->mechanism != NULL) {
         dep_mechanism_hinge_torques(rec->mechanism, q, qd, cs, lam,
                                     rec->torque + row * (size_t)m->nh);
@@ -313,6 +324,7 @@ int dep_recorder_result(dep_recorder *rec, dep_result *result)
     result->outputs = copy_doubles(rec->outputs, n * (size_t)m->nout, &failed);
     result->energy = kept_doubles(rec, rec->energy, n * (size_t)result->ne, &failed);
     result->dissipated = copy_doubles(rec->work, n * (size_t)result->nd, &failed);
+    result->hinge_force = copy_doubles(rec->force, n * 2 * (size_t)m->nh, &failed);
     result->hinge_torque = copy_doubles(rec->torque, n * (size_t)m->nh, &failed);
     result->energy_names = copy_names(rec->system->energy_names, result->ne, &failed);
     result->dissipator_names = copy_names(rec->system->dissipator_names, result->nd, &failed);
@@ -338,7 +350,8 @@ void dep_result_free(dep_result *result)
     double *arrays[] = {result->params, result->times, result->q, result->qd, result->lam,
                         result->hinge_angles, result->hinge_rates, result->outputs,
                         result->residual_pos, result->residual_vel, result->residual_acc,
-                        result->energy, result->dissipated, result->hinge_torque};
+                        result->energy, result->dissipated, result->hinge_force,
+                        result->hinge_torque};
     for (size_t i = 0; i < sizeof arrays / sizeof *arrays; ++i) {
         free(arrays[i]);
     }

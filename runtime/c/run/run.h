@@ -50,7 +50,8 @@ typedef struct dep_recorder {
     int outputs_only; /* dep_settings.rows == DEP_ROWS_OUTPUTS */
     double *times;
     double *t, *q, *qd, *hinge_angles, *hinge_rates, *outputs, *residuals, *energy, *work;
-    double *torque;
+    double *force, *torque;   /* rows x nh x 2, rows x nh: the hinges' loads */
+    int *force_rows;          /* 2 nh: each hinge's reaction rows (dep_hinge_force_rows) */
     dep_mechanism *mechanism; /* the hinges' lock torques; NULL: the lock rows' alone */
     int n_names, names_capacity;
     char **names;
@@ -173,7 +174,8 @@ int dep_run_restart(dep_run *run, double t, const double *q, const double *qd,
 int dep_run_record_until(dep_run *run, double t_until, const dep_outcome *end);
 const dep_active_rows *dep_run_rows(dep_run *run, const dep_state *state);
 void dep_run_observe_loads(dep_run *run, const dep_state *s);
-int dep_run_add_record(dep_run *run, const char *name, double t, const dep_datum *data, int n);
+int dep_run_add_record(dep_run *run, const char *name, int kind, int hinge, double t,
+                       const dep_datum *data, int n); /* kind: enum dep_record_kind */
 int dep_run_log_event(dep_run *run, const char *name, double t, const dep_change *change);
 /* changes.c */
 int dep_run_apply_change(dep_run *run, dep_change *change, const dep_state *here);

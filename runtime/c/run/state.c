@@ -79,9 +79,7 @@ const dep_active_rows *dep_run_rows(dep_run *run, const dep_state *state)
     if (!run->watch.needs_multipliers) {
         return NULL;
     }
-    run->state_rows.nc = run->cs.nc;
-    run->state_rows.names = run->cs.row_names;
-    run->state_rows.lam = state->lam;
+    run->state_rows = dep_cs_view(&run->cs, state->lam);
     return &run->state_rows;
 }
 
@@ -130,7 +128,8 @@ int dep_run_record_until(dep_run *run, double t_until, const dep_outcome *end)
     return DEP_OK;
 }
 
-int dep_run_add_record(dep_run *run, const char *name, double t, const dep_datum *data, int n)
+int dep_run_add_record(dep_run *run, const char *name, int kind, int hinge, double t,
+                       const dep_datum *data, int n)
 {
     if (run->n_records == run->records_capacity) {
         int capacity = run->records_capacity ? 2 * run->records_capacity : 16;
@@ -147,6 +146,8 @@ int dep_run_add_record(dep_run *run, const char *name, double t, const dep_datum
     dep_event_record *record = &run->records[run->n_records];
     dep_copy_text(record->name, sizeof record->name, name);
     record->t = t;
+    record->kind = kind;
+    record->hinge = hinge;
     record->n_data = n;
     record->data = dep_bytes(&run->arena, (size_t)(n ? n : 1) * sizeof *record->data);
     if (record->data == NULL) {
@@ -163,11 +164,13 @@ int dep_run_add_record(dep_run *run, const char *name, double t, const dep_datum
 int dep_run_log_event(dep_run *run, const char *name, double t, const dep_change *change)
 {
     if (change->records == NULL) {
-        return dep_run_add_record(run, name, t, change->data, change->n_data);
+        return dep_run_add_record(run, name, DEP_RECORD_EVENT, -1, t, change->data,
+                                  change->n_data);
     }
     for (int k = 0; k < change->n_records; ++k) {
         const dep_event_record *r = &change->records[k];
-        int status = dep_run_add_record(run, r->name, t, r->data, r->n_data);
+        int status = dep_run_add_record(run, r->name, r->kind, r->hinge, t, r->data,
+                                        r->n_data);
         if (status != DEP_OK) {
             return status;
         }

@@ -32,13 +32,11 @@ static double number(const dep_event_record *r, const char *key, double fallback
     return d != NULL && d->kind == DEP_NUMBER ? d->number : fallback;
 }
 
-/* The first "<h>.latch" record of hinge k, or NULL. */
-static const dep_event_record *latch_record(const dep_model *m, const dep_result *r, int k)
+/* The first latch record of hinge k, or NULL. */
+static const dep_event_record *latch_record(const dep_result *r, int k)
 {
-    char name[DEP_NAME_MAX + 8];
-    snprintf(name, sizeof name, "%s.latch", m->hinge_names[k]);
     for (int e = 0; e < r->n_events; ++e) {
-        if (strcmp(r->events[e].name, name) == 0) {
+        if (r->events[e].kind == DEP_RECORD_LATCH && r->events[e].hinge == k) {
             return &r->events[e];
         }
     }
@@ -67,7 +65,7 @@ static int deployment(const dep_model *m, const dep_system *system, dep_result *
             continue;
         }
         d->latch_hinges[d->n_latch_hinges++] = k;
-        const dep_event_record *e = latch_record(m, r, k);
+        const dep_event_record *e = latch_record(r, k);
         if (e != NULL) {
             const dep_datum *impulse = datum(e, "impulse");
             const dep_datum *rigid = datum(e, "rigid");
@@ -82,10 +80,8 @@ static int deployment(const dep_model *m, const dep_system *system, dep_result *
     qsort(d->latches, (size_t)d->n_latches, sizeof *d->latches, by_time);
     d->deployed = d->n_latch_hinges == 0 ? -1 : d->n_latches == d->n_latch_hinges;
     d->time = d->deployed == 1 ? d->latches[d->n_latches - 1].t : NAN;
-    for (int k = 0; r->n > 0 && k < r->nd; ++k) {
-        if (strncmp(r->dissipator_names[k], "friction.", 9) == 0) {
-            d->friction_energy += r->dissipated[(size_t)(r->n - 1) * (size_t)r->nd + (size_t)k];
-        }
+    for (int k = m->nd; r->n > 0 && k < m->nd + system->n_friction; ++k) { /* "friction.<h>" */
+        d->friction_energy += r->dissipated[(size_t)(r->n - 1) * (size_t)r->nd + (size_t)k];
     }
     for (int e = 0; e < r->n_events; ++e) {
         d->impact_energy += number(&r->events[e], "impact_energy_loss", 0.0);
@@ -107,36 +103,17 @@ static void observe(dep_peak *p, double t, double force, double torque)
     }
 }
 
-/* The index of the result's row `name` (-1: none), looked for at `hint` first. */
-static int row_named(const dep_result *r, const char *name, int hint)
-{
-    if (hint < r->n_rows && strcmp(r->row_names[hint], name) == 0) {
-        return hint;
-    }
-    for (int c = 0; c < r->n_rows; ++c) {
-        if (strcmp(r->row_names[c], name) == 0) {
-            return c;
-        }
-    }
-    return -1;
-}
-
 static int peak_loads(const dep_model *m, const dep_loads *loads, dep_result *r)
 {
-    char name[DEP_NAME_MAX + 8];
     r->peak_loads = calloc((size_t)(m->nh ? m->nh : 1), sizeof *r->peak_loads);
     if (r->peak_loads == NULL) {
         return DEP_MEMORY_ERROR;
     }
     for (int k = 0; k < m->nh; ++k) {
-        snprintf(name, sizeof name, "%s.x", m->hinge_names[k]);
-        int ix = row_named(r, name, 2 * k); /* the model's rows: each hinge's x, y in turn */
-        snprintf(name, sizeof name, "%s.y", m->hinge_names[k]);
-        int iy = row_named(r, name, 2 * k + 1);
         dep_peak p = {0.0, NAN, 0.0, NAN};
         for (int i = 0; i < r->n; ++i) {
-            const double *lam = r->lam + (size_t)i * (size_t)r->n_rows;
-            double force = ix >= 0 && iy >= 0 ? hypot(lam[ix], lam[iy]) : NAN;
+            const double *f = r->hinge_force + ((size_t)i * (size_t)r->nh + (size_t)k) * 2;
+            double force = hypot(f[0], f[1]);
             observe(&p, r->times[i], force, r->hinge_torque[(size_t)i * (size_t)r->nh + (size_t)k]);
         }
         if (!(p.force >= loads->force[k])) { /* ties keep the output time */
@@ -255,19 +232,7 @@ static void load_lines(const dep_model *m, const dep_result *r, text *out)
     }
 }
 
-static int is_latch_event(const dep_model *m, const dep_result *r, const char *name)
-{
-    for (int i = 0; i < r->deployment.n_latch_hinges; ++i) {
-        const char *hinge = m->hinge_names[r->deployment.latch_hinges[i]];
-        size_t length = strlen(hinge);
-        if (strncmp(name, hinge, length) == 0 && strcmp(name + length, ".latch") == 0) {
-            return 1;
-        }
-    }
-    return 0;
-}
-
-static void solver_lines(const dep_model *m, const dep_result *r, text *out)
+static void solver_lines(const dep_result *r, text *out)
 {
     const dep_stats *s = &r->stats;
     int shown = 0, others = 0;
@@ -287,8 +252,7 @@ static void solver_lines(const dep_model *m, const dep_result *r, text *out)
             s->implicit_from, s->stiff_rate);
     }
     for (int e = 0; e < r->n_events; ++e) {
-        if (is_latch_event(m, r, r->events[e].name)
-            || strcmp(r->events[e].name, "assembly") == 0) {
+        if (r->events[e].kind == DEP_RECORD_LATCH || r->events[e].kind == DEP_RECORD_ASSEMBLY) {
             continue;
         }
         ++others;
@@ -307,7 +271,7 @@ static void assembly_line(const dep_model *m, const dep_result *r, text *out)
 {
     for (int e = 0; e < r->n_events; ++e) {
         const dep_event_record *record = &r->events[e];
-        if (strcmp(record->name, "assembly") != 0) {
+        if (record->kind != DEP_RECORD_ASSEMBLY) {
             continue;
         }
         put(out, "  assembled at t = 0 (the loops closed from the given initial values):");
@@ -361,7 +325,7 @@ static int report(const dep_model *m, dep_result *r)
     assembly_line(m, r, &out);
     deployment_lines(m, r, &out);
     load_lines(m, r, &out);
-    solver_lines(m, r, &out);
+    solver_lines(r, &out);
     output_lines(m, r, &out);
     if (out.failed) {
         free(out.data);
