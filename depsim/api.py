@@ -224,6 +224,11 @@ class Simulator:
         stepping: "auto", "explicit" or "implicit" (docs/method.md, 10)."""
         from depsim.runtime import simulate
 
+        for name in inputs or {}:  # a table sets the input's value and rate over time
+            for given in (name, f"{name}.rate"):
+                if given in (set or {}):
+                    raise UsageError(f"input '{name}' is given both a time table (inputs) "
+                                     f"and a value (set['{given}']): give one")
         return simulate(self.module, self.parameters(set), t_end=t_end, dt_out=dt_out,
                         tol=tol, progress=progress, max_steps=max_steps, inputs=inputs,
                         stepping=stepping)

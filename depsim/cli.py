@@ -218,6 +218,9 @@ def _settings(items: list[str]) -> dict[str, str]:
         name, sep, value = item.partition("=")
         if not sep or not name.strip() or not value.strip():
             raise UsageError(f"--set '{item}': expected NAME=VALUE, e.g. --set h2.friction=0.7")
+        if name.strip() in settings:
+            raise UsageError(f"--set {name.strip()} is given twice ({settings[name.strip()]} "
+                             f"and {value.strip()}): give each parameter once")
         settings[name.strip()] = value.strip()
     return settings
 
@@ -233,6 +236,9 @@ def _input_tables(items: list[str]) -> dict:
         if not sep or not name.strip() or not path.strip():
             raise UsageError(f"--input '{item}': expected NAME=FILE, e.g. --input "
                              "T_motor=torque.csv")
+        if name.strip() in tables:
+            raise UsageError(f"--input {name.strip()} is given twice: give each input one "
+                             "table")
         try:
             tables[name.strip()] = read_table(path.strip())
         except ValueError as exc:
@@ -326,6 +332,11 @@ def _run(args) -> int:
                                 ("--plot", args.plot, lambda p: check_output(p, PLOT_FORMATS)),
                                 ("--animate", args.animate, check_animation_path)])
     settings = _settings(args.set)
+    for name in (item.partition("=")[0].strip() for item in args.input):
+        for given in (name, f"{name}.rate"):
+            if given in settings:
+                raise _usage(f"input {name} is given both a table (--input {name}=...) and "
+                             f"a value (--set {given}=...): give one")
     tables = _input_tables(args.input)
     model = _load(args)
     _check_output_times(model, args)
