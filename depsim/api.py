@@ -234,6 +234,25 @@ class Simulator:
                         stepping=stepping)
 
 
+def _range_check(model: ir.Model, varied: list):
+    """check(p) -> the messages of the model's range checks that p breaks
+    (`depsim.dsl.check_parameters`, as for `set`), testing only the ranges that depend on
+    a varied parameter (the others hold at the defaults)."""
+    from depsim.dsl.evaluate import param_indices
+
+    index = {p.name: i for i, p in enumerate(model.params)}
+    varied_indices = {index[name] for name in varied if name in index}
+
+    def depends(limit: ir.Limit) -> bool:
+        used = param_indices(limit.expr)
+        if limit.bound is not None:
+            used |= param_indices(limit.bound)
+        return bool(used & varied_indices)
+
+    relevant = dataclasses.replace(model, limits=tuple(filter(depends, model.limits)))
+    return functools.partial(check_parameters, relevant)
+
+
 def _unknown_parameter(name: str, by_name, derived) -> str:
     import difflib
 
@@ -273,12 +292,14 @@ def sweep(sim: Simulator, *, grid=None, samples=None, runs=None, seed=None, metr
     from depsim.runtime import sweep as studies
 
     structural = {s.name: s.value for s in sim.model.ir.structural}
+    names = []  # the varied parameters' names
     for spec in (grid, samples):  # a string, strings, or a mapping name -> text
         items = [spec] if isinstance(spec, str) else list(spec or ())
         for item in items:
             name = item.split("=", 1)[0].strip() if isinstance(item, str) else None
             if name in structural:  # a loop bound or index: one model per value
                 raise UsageError(fixed_message(name, structural[name]))
+            names.append(name)
     index = {name: i for i, name in enumerate(sim.parameter_names)}
 
     def quantity(name: str, text: str) -> float:
@@ -289,4 +310,4 @@ def sweep(sim: Simulator, *, grid=None, samples=None, runs=None, seed=None, metr
                          metrics=metrics, t_end=t_end, dt_out=dt_out, tol=tol,
                          time_grid=time_grid, workers=workers, scheduler=scheduler, out=out,
                          resume=resume, progress=progress, quantity=quantity,
-                         defaults=sim.defaults)
+                         defaults=sim.defaults, check=_range_check(sim.model.ir, names))

@@ -1,5 +1,6 @@
 """`depsim sweep` end to end: a small grid study, and bad specs as usage errors."""
 
+import numpy as np
 import xarray as xr
 
 from e2e import EXAMPLES
@@ -51,3 +52,26 @@ def test_default_study_measures_what_single_runs_do(cli, tmp_path):
                 if name.startswith("stats.") and "wall" in name:
                     continue
                 assert float(study[name].values[run]) == value, name
+
+
+def test_values_out_of_the_models_ranges_are_failed_runs_with_their_reason(cli, tmp_path):
+    """A grid reaching a negative friction or length: those runs are failed, with the range
+    they break (the checks `--set` applies), and are not run; the others are."""
+    out = tmp_path / "study.nc"
+    done = cli("sweep", EXAMPLES / "intelsat5.dep", "--grid", "h2.friction=-0.7:0.7:3",
+               "--grid", "panel1.length=-1.965:1.965:2", "--t-end", "2", "--workers", "1",
+               "-o", out)
+    assert done.returncode == 0, done.stderr
+    assert "6 runs, 4 failed" in done.stdout and "failed runs: 4 of 6" in done.stdout
+    friction = "h2.friction must not be negative, got -0.7 N*m"
+    length = "panel1.length must be positive, got -1.965 m"
+    with xr.open_dataset(out, engine="h5netcdf") as study:
+        assert study["failed"].values.tolist() == [True, True, True, False, True, False]
+        errors = [str(e) for e in study["error"].values]
+        assert errors[0] == f"out of the model's ranges: {length}; {friction}"
+        assert errors[1] == f"out of the model's ranges: {friction}"
+        assert errors[2] == errors[4] == f"out of the model's ranges: {length}"
+        assert np.isnan(study["wall_time"].values[[0, 1, 2, 4]]).all()  # never run
+        assert np.isfinite(study["final.theta1"].values[[3, 5]]).all()
+    done = cli("run", EXAMPLES / "intelsat5.dep", "--set", "h2.friction=-0.7", "--t-end", "2")
+    assert done.returncode == 2 and friction in done.stderr  # the same check as --set

@@ -472,3 +472,30 @@ def test_dask_by_address_and_an_unreachable_scheduler(module_path, dask_client, 
     monkeypatch.setattr(backends, "CONNECT_TIMEOUT", "1s")
     with pytest.raises(StudyError, match="cannot reach the Dask scheduler at tcp://127.0.0.1:9"):
         run_study(study(module_path, d), scheduler="tcp://127.0.0.1:9")
+
+
+def positive_mass(p):
+    return [] if p[2] > 0 else [f"m must be positive, got {p[2]:g} kg"]
+
+
+def test_runs_the_check_refuses_are_failed_unrun_and_stay_so_on_resume(module_path, tmp_path):
+    d = design(module_path, runs=12, extra=["m=normal(0.3, 0.5)"])
+    bad = d.values("m") <= 0
+    assert bad.any() and not bad.all()
+    store = tmp_path / "s.nc"
+    s = Study(module_path, d, t_end=2.0, simulate=counting_simulate, check=positive_mass)
+
+    def interrupt(progress):
+        raise KeyboardInterrupt
+
+    CALLS.clear()
+    with pytest.raises(KeyboardInterrupt):
+        run_study(s, scheduler="inline", store=store, batch_size=2, on_batch=interrupt)
+    CALLS.clear()
+    ds = run_study(s, scheduler="inline", store=store, resume=True, batch_size=2)
+    assert ds["failed"].values.tolist() == bad.tolist()
+    for i in np.flatnonzero(bad):
+        assert ds["error"].values[i] == \
+            f"out of the model's ranges: m must be positive, got {d.values('m')[i]:g} kg"
+        assert np.isnan(ds["final.x"].values[i]) and np.isnan(ds["wall_time"].values[i])
+    assert sorted(CALLS) == sorted(d.values("k")[~bad][2:].tolist())  # the rest ran, once
