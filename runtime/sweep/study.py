@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import functools
 import importlib.util
 import math
 import os
@@ -19,7 +20,7 @@ import numpy as np
 from ..output import when_written
 from ..results import MAX_OUTPUT_ROWS, check_output_rows
 from . import backends
-from .metrics import Metric, static_metric_names
+from .metrics import Metric, metric_attributes, static_metric_names
 from .progress import ProgressBar, StudyProgress
 from .spec import Design, SweepSpecError, make_design
 from .storage import (Checkpoint, CheckpointError, build_dataset, check_store, fingerprint,
@@ -137,7 +138,8 @@ def run_study(study: Study, *, workers: int | None = None, scheduler=None,
     _run_missing(plan, records, checkpoint, workers, scheduler, batch_size, progress, on_batch)
     ds = build_dataset(records, study.design, static_metrics=plan.static,
                        user_metrics=list(plan.config.metrics), output_names=plan.outputs,
-                       time_grid=plan.config.time_grid, attrs=plan.attrs)
+                       time_grid=plan.config.time_grid, attrs=plan.attrs,
+                       describe=plan.describe, parameter_units=plan.parameter_units)
     if store is not None:
         write_dataset(ds, store)
         # the checkpoint goes once the file is in place (inside `output.all_or_none`, at the
@@ -158,6 +160,8 @@ class _Plan:
     outputs: tuple[str, ...]
     fingerprint: str
     attrs: dict
+    describe: Callable[[str], dict]  # a metric's units and long_name
+    parameter_units: tuple[str, ...] | None
 
 
 def _plan(study: Study) -> _Plan:
@@ -182,8 +186,11 @@ def _plan(study: Study) -> _Plan:
     settings = {"t_end": study.t_end, "dt_out": study.dt_out, "tol": study.tol,
                 "builtin_metrics": study.builtin_metrics}
     fp = fingerprint(ref.sha256, names, design.matrix, settings, static, grid)
+    units = getattr(module, "PARAMETER_UNITS", None)
     return _Plan(ref, design, config, static, tuple(getattr(module, "OUTPUTS", ())), fp,
-                 _attributes(study, module, ref, fp))
+                 _attributes(study, module, ref, fp),
+                 functools.partial(metric_attributes, module=module, metrics=metrics),
+                 tuple(units) if units is not None and len(units) == len(names) else None)
 
 
 def _output_interval(study: Study, module: ModuleType, metrics: dict,
@@ -234,6 +241,7 @@ def _attributes(study: Study, module: ModuleType, ref: ModuleRef, fp: str) -> di
         "module_sha256": ref.sha256,
         "depsim_version": _version(),
         "generated_by_depsim": str(getattr(module, "DEPSIM_VERSION", "")),
+        "target": "c" if Path(ref.path).suffix in (".so", ".dylib", ".dll") else "numpy",
         "study_kind": design.kind,
         "spec": design.spec,
         "seed": design.seed,

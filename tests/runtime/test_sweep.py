@@ -125,7 +125,18 @@ def test_inline_matches_single_runs_and_records_everything(module_path, tmp_path
     ds = run_study(study(module_path, d, time_grid=5), scheduler="inline",
                    store=tmp_path / "s.nc")
     assert_same_as_single_runs(ds, module_path, d)
-    assert list(ds.data_vars)[:2] == ["event.h1.latch.t", "deployed"]
+    assert list(ds.data_vars)[:3] == ["deployed", "time_to_deploy", "event.h1.latch.t"]
+    latched = ds["deployed"].values == 1
+    assert latched.any() and np.array_equal(ds["time_to_deploy"].values[latched],
+                                            ds["event.h1.latch.t"].values[latched])
+    assert np.isnan(ds["time_to_deploy"].values[~latched]).all()
+    # every metric and parameter carries its unit (OSCILLATOR's PARAMETER_UNITS, OUTPUT_UNITS)
+    units = {name: ds[name].attrs.get("units") for name in ds.data_vars}
+    assert units["final.x"] == "m" and units["final.v"] == "m/s"
+    assert units["event.h1.latch.t"] == units["time_to_deploy"] == "s"
+    assert units["deployed"] == units["stats.steps"] == "1" and units["peak_speed"] is None
+    assert ds["k"].attrs["units"] == "N/m" and ds["c"].attrs["units"] == "N*s/m"
+    assert ds["parameter_unit"].values.tolist() == ["N/m", "N*s/m", "kg", "m", "m"]
     for name in ("final.x", "final.v", "stats.steps", "stats.rejected", "stats.iterations",
                  "peak_speed", "wall_time", "output.x", "output.v"):
         assert name in ds
@@ -427,7 +438,8 @@ def assert_real_sweep_matches(ds, path, d, t_end):
         for name in module.OUTPUTS:  # the outputs themselves, bit for bit
             assert ds[f"final.{name}"].values[i] == result.output(name)[-1]
         for name, value in expected.items():
-            assert ds[name].values[i] == value, (i, name)
+            got = ds[name].values[i]
+            assert got == value or (math.isnan(got) and math.isnan(value)), (i, name)
 
 
 @pytest.mark.parametrize("where", ["pool", "dask"])
@@ -499,3 +511,4 @@ def test_runs_the_check_refuses_are_failed_unrun_and_stay_so_on_resume(module_pa
             f"out of the model's ranges: m must be positive, got {d.values('m')[i]:g} kg"
         assert np.isnan(ds["final.x"].values[i]) and np.isnan(ds["wall_time"].values[i])
     assert sorted(CALLS) == sorted(d.values("k")[~bad][2:].tolist())  # the rest ran, once
+
