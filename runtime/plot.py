@@ -39,7 +39,7 @@ def plot_outputs(result, path) -> None:
     axes = figure.subplots(count, 1, sharex=True, squeeze=False)[:, 0]
     for ax, name, unit, column in zip(axes, result.output_names, result.output_units,
                                       result.outputs.T):
-        values, unit = _display(column, unit)
+        values, unit = display_values(column, unit)
         ax.plot(result.times, values, lw=1.2)
         ax.set_ylabel(f"{name} [{unit}]" if unit else name)
         ax.grid(True, alpha=0.3)
@@ -58,8 +58,8 @@ def plot_outputs(result, path) -> None:
         figure.savefig(tmp, format=image_format, dpi=100)
 
 
-def _display(values: np.ndarray, unit: str) -> tuple[np.ndarray, str]:
-    """Angles in degrees for display; everything else as is (SI)."""
+def display_values(values: np.ndarray, unit: str) -> tuple[np.ndarray, str]:
+    """Values and their unit as shown: angles (rad, rad/s) in degrees, the rest as is (SI)."""
     if unit == "rad":
         return np.degrees(values), "deg"
     if unit == "rad/s":
