@@ -283,13 +283,20 @@ def _parameter_value(param: ir.Param, value: float | str) -> float:
 
 def sweep(sim: Simulator, *, grid=None, samples=None, runs=None, seed=None, metrics=None,
           t_end=None, dt_out=None, tol=None, time_grid=None, workers=None, scheduler=None,
-          out=None, resume=False, progress=None):
+          out=None, resume=False, progress=None, target="c"):
     """Run a parameter study of a compiled model; returns an xarray Dataset (also written to
     `out` as NetCDF). `grid`: ["NAME=START:STOP:N", ...]; `samples`: ["NAME=normal(MU,SIGMA)",
     "NAME=uniform(A,B)", ...] with `runs` and `seed`. Values may carry units ("1.5N*m").
     `scheduler`: None for a local process pool, or a Dask scheduler address / Client.
+    `target`: the code the runs use, "c" (default, about 30 times faster) or "numpy"; a
+    Simulator of the other target is compiled for it (once; then from the cache).
     See docs/api.md."""
     from depsim.runtime import sweep as studies
+
+    if target not in TARGETS:
+        raise UsageError(f"unknown target '{target}' (available: {', '.join(TARGETS)})")
+    if sim.target != target:
+        sim = sim.model.compile(target)
 
     structural = {s.name: s.value for s in sim.model.ir.structural}
     names = []  # the varied parameters' names

@@ -54,3 +54,11 @@ def test_a_study_measures_what_each_run_reports_in_its_units(sim):
     index = list(study["parameter"].values).index("cable_k")
     assert study["parameter_unit"].values[index] == "N/m"
 
+
+def test_a_numpy_simulator_studies_on_the_c_target_unless_told(sim):
+    numpy = depsim.load(EXAMPLES / "pendulum.dep").compile()
+    study = depsim.sweep(numpy, grid=["L=0.5:1:2"], t_end=0.2, scheduler="inline")
+    assert study.attrs["target"] == "c"
+    study = depsim.sweep(numpy, grid=["L=0.5:1:2"], t_end=0.2, scheduler="inline",
+                         target="numpy")
+    assert study.attrs["target"] == "numpy"

@@ -512,3 +512,48 @@ def test_runs_the_check_refuses_are_failed_unrun_and_stay_so_on_resume(module_pa
         assert np.isnan(ds["final.x"].values[i]) and np.isnan(ds["wall_time"].values[i])
     assert sorted(CALLS) == sorted(d.values("k")[~bad][2:].tolist())  # the rest ran, once
 
+
+NO_GUARD_SCRIPT = '''
+import json, sys, types
+import numpy as np
+from depsim.runtime.sweep import sweep
+
+with open("ran.txt", "a") as f:   # once per run of this script
+    f.write("ran\\n")
+
+
+def line(module, p, t_end=None, dt_out=None, tol=None, progress=False):
+    t = np.linspace(0.0, 1.0, 5)
+    return types.SimpleNamespace(times=t, outputs={"x": p[0] * t, "v": p[0] + 0 * t},
+                                 events=[], stats={"steps": 4})
+
+
+def twice_k(result):
+    return 2 * float(result.outputs["v"][0])
+
+
+study = sweep(sys.argv[1], samples=["k=uniform(2, 8)"], runs=6, seed=1, workers=2,
+              batch_size=1, simulate=line, metrics={"twice_k": twice_k})
+print(json.dumps({"failed": study["failed"].values.tolist(),
+                  "twice_k": study["twice_k"].values.tolist(),
+                  "k": study["k"].values.tolist()}))
+'''
+
+
+def test_a_script_without_a_main_guard_runs_a_pool_study_once(module_path, tmp_path):
+    """Spawned workers import the main script again, unless told not to: a study started
+    from a script without `if __name__ == "__main__":` must work, its functions defined
+    there reach the workers, and the script runs once, not once per worker."""
+    import json
+    import subprocess
+    import sys
+
+    script = tmp_path / "study.py"
+    script.write_text(NO_GUARD_SCRIPT)
+    done = subprocess.run([sys.executable, str(script), str(module_path)], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    got = json.loads(done.stdout.strip().splitlines()[-1])
+    assert got["failed"] == [False] * 6
+    assert got["twice_k"] == [2 * k for k in got["k"]]
+    assert (tmp_path / "ran.txt").read_text() == "ran\n"
