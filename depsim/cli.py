@@ -158,6 +158,10 @@ def _parser() -> argparse.ArgumentParser:
     sweep.add_argument("-o", "--out", metavar="NC", help="NetCDF file (default MODEL-sweep.nc)")
     sweep.add_argument("--plot", metavar="PNG", help="histograms and scatter plots (.png, "
                                                      ".pdf, .svg, ...)")
+    sweep.add_argument("--limit", action="append", default=[], metavar="METRIC=VALUE",
+                       help="also give the probability that METRIC exceeds VALUE, with its "
+                            "confidence interval, e.g. --limit 'peak.h1.torque=8 N*m'; "
+                            "repeatable")
     sweep.add_argument("--resume", action="store_true", help="complete an interrupted study")
     _add_elements(sweep)
     sweep.set_defaults(command=_sweep)
@@ -376,12 +380,13 @@ def _sweep(args) -> int:
     model = _load(args)
     _check_output_times(model, args)
     sim = model.compile(target=args.target)
+    limits = _limits(args.limit, sim.module)
     try:
         with all_or_none():  # the study file and the plot, or neither (the runs stay kept)
             study = _study(sim, args, out)
-            print(summarize(study))
+            print(summarize(study, limits={n: v for n, v in limits.items() if n in study}))
             if args.plot:
-                plot_study(study, args.plot)
+                plot_study(study, args.plot, limits=limits)
     except OSError as exc:
         partial = partial_path(out)
         if partial.exists():
@@ -400,11 +405,42 @@ def _study(sim, args, out: str):
         return depsim.sweep(sim, grid=args.grid, samples=args.sample, runs=args.runs,
                             seed=args.seed, t_end=args.t_end, dt_out=args.dt_out, tol=args.tol,
                             time_grid=args.time_grid, workers=args.workers,
-                            scheduler=args.scheduler, out=out, resume=args.resume)
+                            scheduler=args.scheduler, out=out, resume=args.resume,
+                            target=args.target)
     except ValueError as exc:  # a SweepSpecError is reported as it is; another: a setting
         if _report_as_is(exc):
             raise
         raise _usage(str(exc)) from exc
+
+
+def _limits(items: list[str], module) -> dict[str, float]:
+    """--limit METRIC=VALUE: {metric: SI value}, checked before the study runs: a metric a
+    study of `module` has, a value in its unit (depsim.runtime.sweep.metrics)."""
+    from depsim.dsl import parse_quantity
+    from depsim.runtime.sweep.metrics import known_metric, metric_attributes
+
+    limits = {}
+    for item in items:
+        name, sep, text = (part.strip() for part in item.partition("="))
+        if not sep or not name or not text:
+            raise _usage(f"--limit '{item}': expected METRIC=VALUE, e.g. --limit "
+                         "'peak.h1.torque=8 N*m'")
+        if not known_metric(name, module):
+            raise _usage(f"--limit '{item}': no metric '{name}' in a study of this model "
+                         "(deployed, time_to_deploy, event.<name>.<key>, peak.<hinge>.force, "
+                         "peak.<hinge>.torque, dissipated.<kind>, final.<output>; "
+                         "docs/api.md, Metrics)")
+        unit = metric_attributes(name, module).get("units", "")
+        try:
+            value, dim = parse_quantity(text)
+            wanted = parse_quantity(f"1 {unit}")[1] if unit not in ("", "1") else dim
+        except ValueError as exc:
+            raise _usage(f"--limit '{item}': {exc}") from None
+        if dim != wanted and dim != type(dim)():
+            raise _usage(f"--limit '{item}': {name} is in {unit}; '{text}' has another "
+                         "dimension")
+        limits[name] = value
+    return limits
 
 
 def _check_outputs(model: str, outputs) -> None:

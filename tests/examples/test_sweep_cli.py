@@ -78,3 +78,23 @@ def test_values_out_of_the_models_ranges_are_failed_runs_with_their_reason(cli, 
         assert np.isfinite(study["final.theta1"].values[[3, 5]]).all()
     done = cli("run", EXAMPLES / "intelsat5.dep", "--set", "h2.friction=-0.7", "--t-end", "2")
     assert done.returncode == 2 and friction in done.stderr  # the same check as --set
+
+
+def test_a_limit_gives_the_probability_of_exceeding_it(cli, tmp_path):
+    out = tmp_path / "study.nc"
+    done = cli("sweep", EXAMPLES / "pendulum.dep", "--grid", "m=1kg:3kg:3", "--t-end", "0.5",
+               "--workers", "1", "--limit", "peak.pivot.force=40 N", "-o", out)
+    assert done.returncode == 0, done.stderr
+    with xr.open_dataset(out, engine="h5netcdf") as study:
+        above = int((study["peak.pivot.force"].values > 40).sum())
+    assert 0 < above < 3  # the heavier bars pull harder on the pivot
+    assert f"P(peak.pivot.force > 40 N) = {100 * above / 3:.1f} % (95 % CI " in done.stdout
+    assert f"Clopper-Pearson; {above} of 3 runs)" in done.stdout
+    for limit, message in [("peak.pivot.force=40 m", "peak.pivot.force is in N; '40 m' has "
+                                                     "another dimension"),
+                           ("peak.nosuch.force=1", "no metric 'peak.nosuch.force'"),
+                           ("peak.pivot.force", "expected METRIC=VALUE")]:
+        done = cli("sweep", EXAMPLES / "pendulum.dep", "--grid", "m=1kg:3kg:3", "--limit",
+                   limit, "-o", tmp_path / "x.nc")
+        assert done.returncode == 2 and message in done.stderr, done.stderr
+        assert not (tmp_path / "x.nc").exists() and "Traceback" not in done.stderr
