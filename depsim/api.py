@@ -14,6 +14,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import hashlib
+import math
 import os
 from pathlib import Path
 from typing import Mapping
@@ -214,6 +215,27 @@ class Simulator:
         if problems:
             raise UsageError("; ".join(problems))
         return p
+
+    def outlines(self, params=None) -> dict[str, np.ndarray]:
+        """Each rigid member's points in its own frame (m, from its centre of mass) for the
+        parameter vector `params` (default: the defaults): what `depsim.runtime.animate`
+        draws its outline through. A bar's ends and declared points, a body's declared
+        points and its centre; a body of fewer than two points also gets the corners of a
+        square of half-side its radius of gyration, sqrt(inertia / mass)."""
+        from depsim.dsl.evaluate import EvaluationError, evaluate
+
+        p = self.defaults if params is None else np.asarray(params, dtype=float)
+        out = {}
+        for body in self.model.ir.bodies:
+            try:
+                points = [(evaluate(point.x, p), evaluate(point.y, p)) for point in body.points]
+                if len({*points, (0.0, 0.0)}) < 3 and body.kind != "bar":
+                    radius = math.sqrt(evaluate(body.inertia, p) / evaluate(body.mass, p))
+                    points += [(sx * radius, sy * radius) for sx in (-1, 1) for sy in (-1, 1)]
+            except (EvaluationError, ValueError, ZeroDivisionError):
+                continue  # the animation reconstructs this member from the module
+            out[body.name] = np.array([(0.0, 0.0)] + points)
+        return out
 
     def run(self, set: Mapping[str, float | str] | None = None, t_end: float | None = None,
             dt_out: float | None = None, tol: float | None = None, progress: bool = False,

@@ -361,7 +361,8 @@ def _run(args) -> int:
             plot_outputs(result, args.plot)
         if args.animate:
             from depsim.runtime import animate
-            animate(result, sim.module, args.animate)
+            animate(result, sim.module, args.animate,
+                    outlines=sim.outlines(result.parameters))
     print(result.report())
     print(f"  code: reused from the cache ({sim.cached}): nothing derived" if sim.cached
           else "  code: derived and generated (kept in the cache for the next run)")
