@@ -121,7 +121,7 @@ class _Reader:
         fields = [f.strip() for f in content.split(",")]
         expected = f"{self.path}:{number}: expected two numbers 't,u', got '{content}'"
         if len(fields) != 2:
-            raise ValueError(f"{expected} ({len(fields)} fields)")
+            raise ValueError(f"{expected} ({len(fields)} field{'s' * (len(fields) != 1)})")
         values = [_number(f) for f in fields]
         if None in values:
             raise ValueError(f"{expected} ({_not_numbers(fields)})")

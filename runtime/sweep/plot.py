@@ -73,7 +73,7 @@ def study_figure(ds, metrics: list[str] | None = None, limits: dict[str, float] 
     FigureCanvasAgg(figure)
     failed = int((~view.ok).sum())
     figure.suptitle(f"{ds.attrs.get('title', 'depsim parameter study')}: "
-                    f"{int(ds.sizes['run'])} runs, {failed} failed", fontsize=12)
+                    f"{_runs(int(ds.sizes['run']))}, {failed} failed", fontsize=12)
     parts = figure.subfigures(len(sections), 1, height_ratios=[h for h, _ in sections])
     for part, (_, draw) in zip(np.atleast_1d(parts), sections):
         draw(part)
@@ -166,7 +166,8 @@ class _View:
         ax.set_yticks(range(3), labels)
         ax.set_ylim(2.6, -0.6)
         ax.set_xlim(0, 1.3)
-        ax.set_xlabel(f"share of the {runs} runs", fontsize=8)
+        ax.set_xlabel(f"share of the {_runs(runs)}" if runs != 1 else "share of the run",
+                      fontsize=8)
         _style(ax, grid="x")
 
     # -- 2. latch times and peak loads ------------------------------------------------------
@@ -374,6 +375,10 @@ def _percentile_marks(ax, values: np.ndarray) -> None:
         ax.annotate(f"p{q} {value:.4g}", (value, 1.0), xycoords=("data", "axes fraction"),
                     xytext=(2, -9 - 9 * k), textcoords="offset points", fontsize=7,
                     color="0.25")
+
+
+def _runs(count: int) -> str:
+    return f"{count} run{'s' * (count != 1)}"
 
 
 def _style(ax, grid: str = "both") -> None:

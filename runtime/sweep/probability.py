@@ -35,7 +35,8 @@ class Probability:
         if not self.n:
             return "- (no run to count)"
         return (f"{_percent(self.p)} % ({100 * self.confidence:g} % CI {_percent(self.low)} "
-                f"to {_percent(self.high)} %, Clopper-Pearson; {self.k} of {self.n} runs)")
+                f"to {_percent(self.high)} %, Clopper-Pearson; {self.k} of {self.n} "
+                f"run{'s' * (self.n != 1)})")
 
 
 def probability(k: int, n: int, confidence: float = CONFIDENCE) -> Probability:

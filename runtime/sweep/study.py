@@ -328,8 +328,8 @@ def _run_missing(plan: _Plan, records: dict, checkpoint, workers, scheduler, bat
         if checkpoint is not None:
             checkpoint.close()
             if isinstance(exc, (KeyboardInterrupt, StudyError)):
-                print(f"depsim: {len(records)} of {design.runs} runs kept in "
-                      f"{checkpoint.path}; run again with resume (--resume) to finish",
+                print(f"depsim: {len(records)} of {design.runs} run{'s' * (design.runs != 1)} "
+                      f"kept in {checkpoint.path}; run again with resume (--resume) to finish",
                       file=sys.stderr)
         raise
     bar.close()

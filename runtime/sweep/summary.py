@@ -179,7 +179,7 @@ def summarize(ds, top: int = 3, max_errors: int = 5,
     runs = int(ds.sizes["run"])
     failed = np.asarray(ds["failed"].values, dtype=bool)
     kind = str(ds.attrs.get("study_kind", "")).replace("_", " ")
-    lines = [f"{ds.attrs.get('title', 'depsim parameter study')}: {kind}, {runs} runs, "
+    lines = [f"{ds.attrs.get('title', 'depsim parameter study')}: {kind}, {runs} run{'s' * (runs != 1)}, "
              f"{int(failed.sum())} failed" + (f", seed {ds.attrs['seed']}"
                                               if "seed" in ds.attrs else "")]
     if ds.attrs.get("spec"):
@@ -202,7 +202,8 @@ def _probabilities(ds, limits: Mapping[str, float]) -> list[str]:
     lines = []
     missing = not_deployed(ds)
     if missing is not None:
-        lines.append(f"deployed in {missing.n - missing.k} of {missing.n} completed runs; "
+        lines.append(f"deployed in {missing.n - missing.k} of {missing.n} completed "
+                     f"run{'s' * (missing.n != 1)}; "
                      f"P(not deployed) = {missing.text()}")
     for metric, limit in limits.items():
         if metric not in ds:
@@ -239,7 +240,8 @@ def _steady(rows: list[dict], listed: int = 12) -> list[str]:
         items.append(f"{row['metric']} = {_num(value)}{' ' + unit if unit and unit != '1' else ''}")
     if len(rows) > listed:
         items.append(f"and {len(rows) - listed} more")
-    lines, line = ["", f"not varying (to the integration tolerance), {len(rows)} metrics:"], " "
+    count = f"{len(rows)} metric{'s' * (len(rows) != 1)}"
+    lines, line = ["", f"not varying (to the integration tolerance), {count}:"], " "
     for item in items:
         if len(line) + len(item) > 96:
             lines.append(line.rstrip(","))

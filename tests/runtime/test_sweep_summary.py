@@ -132,3 +132,13 @@ def test_a_study_without_latches_shows_the_distributions(study):
     assert first.get_ylabel() == "share of runs <= x"
     assert "P(not deployed)" not in summarize(plain)
     assert not math.isnan(float(metric_table(plain)[0]["p50"]))
+
+
+def test_one_run_is_one_run():
+    text = summarize(deployment_study(runs=1, failed=()))
+    assert "monte carlo, 1 run, 0 failed" in text
+    assert "deployed in 1 of 1 completed run; P(not deployed) = 0.0 % (95 % CI 0.0 to " \
+           "97.5 %, Clopper-Pearson; 0 of 1 run)" in text
+    figure = study_figure(deployment_study(runs=1, failed=()))
+    assert figure.texts[0].get_text().endswith(": 1 run, 0 failed")
+    assert figure.subfigs[0].axes[1].get_xlabel() == "share of the run"

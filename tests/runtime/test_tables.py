@@ -40,6 +40,7 @@ def test_a_header_is_a_row_naming_the_columns_and_nothing_else_is_dropped(tmp_pa
     ("inf,nan\n", 1, "expected two finite numbers"),
     ("0,1\n1,\n", 2, "(an empty field)"),
     ("0,1\n1,2,3\n", 2, "(3 fields)"),
+    ("0,1\n1\n", 2, "(1 field)"),
     ("0,1\n2,1\n1,1\n", 3, "time 1 s is before the line above (2 s)"),
 ])
 def test_a_row_that_is_not_two_numbers_is_an_error_with_its_line(tmp_path, text, line,
