@@ -156,8 +156,9 @@ def _parser() -> argparse.ArgumentParser:
     sweep.add_argument("--time-grid", type=_positive_int, metavar="N",
                        help="also store every output at N times")
     sweep.add_argument("-o", "--out", metavar="NC", help="NetCDF file (default MODEL-sweep.nc)")
-    sweep.add_argument("--plot", metavar="PNG", help="histograms and scatter plots (.png, "
-                                                     ".pdf, .svg, ...)")
+    sweep.add_argument("--plot", metavar="PNG", help="the study's figure: deployment, latch "
+                                                     "times and peak loads, what drives what "
+                                                     "(.png, .pdf, .svg, ...)")
     sweep.add_argument("--limit", action="append", default=[], metavar="METRIC=VALUE",
                        help="also give the probability that METRIC exceeds VALUE, with its "
                             "confidence interval, e.g. --limit 'peak.h1.torque=8 N*m'; "
