@@ -179,9 +179,9 @@ def summarize(ds, top: int = 3, max_errors: int = 5,
     runs = int(ds.sizes["run"])
     failed = np.asarray(ds["failed"].values, dtype=bool)
     kind = str(ds.attrs.get("study_kind", "")).replace("_", " ")
-    lines = [f"{ds.attrs.get('title', 'depsim parameter study')}: {kind}, {runs} run{'s' * (runs != 1)}, "
-             f"{int(failed.sum())} failed" + (f", seed {ds.attrs['seed']}"
-                                              if "seed" in ds.attrs else "")]
+    seed = f", seed {ds.attrs['seed']}" if "seed" in ds.attrs else ""
+    lines = [f"{ds.attrs.get('title', 'depsim parameter study')}: {kind}, "
+             f"{runs} run{'s' * (runs != 1)}, {int(failed.sum())} failed{seed}"]
     if ds.attrs.get("spec"):
         lines.append(f"spec: {ds.attrs['spec']}")
     lines += [""] + _probabilities(ds, limits or {})
@@ -237,7 +237,8 @@ def _steady(rows: list[dict], listed: int = 12) -> list[str]:
     items = []
     for row in rows[:listed]:
         (value,), unit = _shown([row["p50"]], row["unit"])
-        items.append(f"{row['metric']} = {_num(value)}{' ' + unit if unit and unit != '1' else ''}")
+        unit = f" {unit}" if unit and unit != "1" else ""
+        items.append(f"{row['metric']} = {_num(value)}{unit}")
     if len(rows) > listed:
         items.append(f"and {len(rows) - listed} more")
     count = f"{len(rows)} metric{'s' * (len(rows) != 1)}"
