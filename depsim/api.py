@@ -14,6 +14,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import hashlib
+import math
 import os
 from pathlib import Path
 from typing import Mapping
@@ -217,6 +218,27 @@ class Simulator:
             raise UsageError("; ".join(problems))
         return p
 
+    def outlines(self, params=None) -> dict[str, np.ndarray]:
+        """Each rigid member's points in its own frame (m, from its centre of mass) for the
+        parameter vector `params` (default: the defaults): what `depsim.runtime.animate`
+        draws its outline through. A bar's ends and declared points, a body's declared
+        points and its centre; a body of fewer than two points also gets the corners of a
+        square of half-side its radius of gyration, sqrt(inertia / mass)."""
+        from depsim.dsl.evaluate import EvaluationError, evaluate
+
+        p = self.defaults if params is None else np.asarray(params, dtype=float)
+        out = {}
+        for body in self.model.ir.bodies:
+            try:
+                points = [(evaluate(point.x, p), evaluate(point.y, p)) for point in body.points]
+                if len({*points, (0.0, 0.0)}) < 3 and body.kind != "bar":
+                    radius = math.sqrt(evaluate(body.inertia, p) / evaluate(body.mass, p))
+                    points += [(sx * radius, sy * radius) for sx in (-1, 1) for sy in (-1, 1)]
+            except (EvaluationError, ValueError, ZeroDivisionError):
+                continue  # the animation reconstructs this member from the module
+            out[body.name] = np.array([(0.0, 0.0)] + points)
+        return out
+
     def run(self, set: Mapping[str, float | str] | None = None, t_end: float | None = None,
             dt_out: float | None = None, tol: float | None = None, progress: bool = False,
             max_steps: float | None = None, inputs=None, stepping: str = "auto"):
@@ -226,9 +248,33 @@ class Simulator:
         stepping: "auto", "explicit" or "implicit" (docs/method.md, 10)."""
         from depsim.runtime import simulate
 
+        for name in inputs or {}:  # a table sets the input's value and rate over time
+            for given in (name, f"{name}.rate"):
+                if given in (set or {}):
+                    raise UsageError(f"input '{name}' is given both a time table (inputs) "
+                                     f"and a value (set['{given}']): give one")
         return simulate(self.module, self.parameters(set), t_end=t_end, dt_out=dt_out,
                         tol=tol, progress=progress, max_steps=max_steps, inputs=inputs,
                         stepping=stepping)
+
+
+def _range_check(model: ir.Model, varied: list):
+    """check(p) -> the messages of the model's range checks that p breaks
+    (`depsim.dsl.check_parameters`, as for `set`), testing only the ranges that depend on
+    a varied parameter (the others hold at the defaults)."""
+    from depsim.dsl.evaluate import param_indices
+
+    index = {p.name: i for i, p in enumerate(model.params)}
+    varied_indices = {index[name] for name in varied if name in index}
+
+    def depends(limit: ir.Limit) -> bool:
+        used = param_indices(limit.expr)
+        if limit.bound is not None:
+            used |= param_indices(limit.bound)
+        return bool(used & varied_indices)
+
+    relevant = dataclasses.replace(model, limits=tuple(filter(depends, model.limits)))
+    return functools.partial(check_parameters, relevant)
 
 
 def _unknown_parameter(name: str, by_name, derived) -> str:
@@ -261,21 +307,30 @@ def _parameter_value(param: ir.Param, value: float | str) -> float:
 
 def sweep(sim: Simulator, *, grid=None, samples=None, runs=None, seed=None, metrics=None,
           t_end=None, dt_out=None, tol=None, time_grid=None, workers=None, scheduler=None,
-          out=None, resume=False, progress=None):
+          out=None, resume=False, progress=None, target="c"):
     """Run a parameter study of a compiled model; returns an xarray Dataset (also written to
     `out` as NetCDF). `grid`: ["NAME=START:STOP:N", ...]; `samples`: ["NAME=normal(MU,SIGMA)",
     "NAME=uniform(A,B)", ...] with `runs` and `seed`. Values may carry units ("1.5N*m").
     `scheduler`: None for a local process pool, or a Dask scheduler address / Client.
+    `target`: the code the runs use, "c" (default, about 30 times faster) or "numpy"; a
+    Simulator of the other target is compiled for it (once; then from the cache).
     See docs/api.md."""
     from depsim.runtime import sweep as studies
 
+    if target not in TARGETS:
+        raise UsageError(f"unknown target '{target}' (available: {', '.join(TARGETS)})")
+    if sim.target != target:
+        sim = sim.model.compile(target)
+
     structural = {s.name: s.value for s in sim.model.ir.structural}
+    names = []  # the varied parameters' names
     for spec in (grid, samples):  # a string, strings, or a mapping name -> text
         items = [spec] if isinstance(spec, str) else list(spec or ())
         for item in items:
             name = item.split("=", 1)[0].strip() if isinstance(item, str) else None
             if name in structural:  # a loop bound or index: one model per value
                 raise UsageError(fixed_message(name, structural[name]))
+            names.append(name)
     index = {name: i for i, name in enumerate(sim.parameter_names)}
 
     def quantity(name: str, text: str) -> float:
@@ -286,4 +341,4 @@ def sweep(sim: Simulator, *, grid=None, samples=None, runs=None, seed=None, metr
                          metrics=metrics, t_end=t_end, dt_out=dt_out, tol=tol,
                          time_grid=time_grid, workers=workers, scheduler=scheduler, out=out,
                          resume=resume, progress=progress, quantity=quantity,
-                         defaults=sim.defaults)
+                         defaults=sim.defaults, check=_range_check(sim.model.ir, names))

@@ -156,8 +156,13 @@ def _parser() -> argparse.ArgumentParser:
     sweep.add_argument("--time-grid", type=_positive_int, metavar="N",
                        help="also store every output at N times")
     sweep.add_argument("-o", "--out", metavar="NC", help="NetCDF file (default MODEL-sweep.nc)")
-    sweep.add_argument("--plot", metavar="PNG", help="histograms and scatter plots (.png, "
-                                                     ".pdf, .svg, ...)")
+    sweep.add_argument("--plot", metavar="PNG", help="the study's figure: deployment, latch "
+                                                     "times and peak loads, what drives what "
+                                                     "(.png, .pdf, .svg, ...)")
+    sweep.add_argument("--limit", action="append", default=[], metavar="METRIC=VALUE",
+                       help="also give the probability that METRIC exceeds VALUE, with its "
+                            "confidence interval, e.g. --limit 'peak.h1.torque=8 N*m'; "
+                            "repeatable")
     sweep.add_argument("--resume", action="store_true", help="complete an interrupted study")
     _add_elements(sweep)
     sweep.set_defaults(command=_sweep)
@@ -218,6 +223,9 @@ def _settings(items: list[str]) -> dict[str, str]:
         name, sep, value = item.partition("=")
         if not sep or not name.strip() or not value.strip():
             raise UsageError(f"--set '{item}': expected NAME=VALUE, e.g. --set h2.friction=0.7")
+        if name.strip() in settings:
+            raise UsageError(f"--set {name.strip()} is given twice ({settings[name.strip()]} "
+                             f"and {value.strip()}): give each parameter once")
         settings[name.strip()] = value.strip()
     return settings
 
@@ -233,6 +241,9 @@ def _input_tables(items: list[str]) -> dict:
         if not sep or not name.strip() or not path.strip():
             raise UsageError(f"--input '{item}': expected NAME=FILE, e.g. --input "
                              "T_motor=torque.csv")
+        if name.strip() in tables:
+            raise UsageError(f"--input {name.strip()} is given twice: give each input one "
+                             "table")
         try:
             tables[name.strip()] = read_table(path.strip())
         except ValueError as exc:
@@ -330,6 +341,11 @@ def _run(args) -> int:
                                 ("--plot", args.plot, lambda p: check_output(p, PLOT_FORMATS)),
                                 ("--animate", args.animate, check_animation_path)])
     settings = _settings(args.set)
+    for name in (item.partition("=")[0].strip() for item in args.input):
+        for given in (name, f"{name}.rate"):
+            if given in settings:
+                raise _usage(f"input {name} is given both a table (--input {name}=...) and "
+                             f"a value (--set {given}=...): give one")
     tables = _input_tables(args.input)
     model = _load(args)
     _check_output_times(model, args)
@@ -350,7 +366,8 @@ def _run(args) -> int:
             plot_outputs(result, args.plot)
         if args.animate:
             from depsim.runtime import animate
-            animate(result, sim.module, args.animate)
+            animate(result, sim.module, args.animate,
+                    outlines=sim.outlines(result.parameters))
     print(result.report())
     print(f"  code: reused from the cache ({sim.cached}): nothing derived" if sim.cached
           else "  code: derived and generated (kept in the cache for the next run)")
@@ -369,12 +386,13 @@ def _sweep(args) -> int:
     model = _load(args)
     _check_output_times(model, args)
     sim = model.compile(target=args.target)
+    limits = _limits(args.limit, sim.module)
     try:
         with all_or_none():  # the study file and the plot, or neither (the runs stay kept)
             study = _study(sim, args, out)
-            print(summarize(study))
+            print(summarize(study, limits={n: v for n, v in limits.items() if n in study}))
             if args.plot:
-                plot_study(study, args.plot)
+                plot_study(study, args.plot, limits=limits)
     except OSError as exc:
         partial = partial_path(out)
         if partial.exists():
@@ -393,11 +411,42 @@ def _study(sim, args, out: str):
         return depsim.sweep(sim, grid=args.grid, samples=args.sample, runs=args.runs,
                             seed=args.seed, t_end=args.t_end, dt_out=args.dt_out, tol=args.tol,
                             time_grid=args.time_grid, workers=args.workers,
-                            scheduler=args.scheduler, out=out, resume=args.resume)
+                            scheduler=args.scheduler, out=out, resume=args.resume,
+                            target=args.target)
     except ValueError as exc:  # a SweepSpecError is reported as it is; another: a setting
         if _report_as_is(exc):
             raise
         raise _usage(str(exc)) from exc
+
+
+def _limits(items: list[str], module) -> dict[str, float]:
+    """--limit METRIC=VALUE: {metric: SI value}, checked before the study runs: a metric a
+    study of `module` has, a value in its unit (depsim.runtime.sweep.metrics)."""
+    from depsim.dsl import parse_quantity
+    from depsim.runtime.sweep.metrics import known_metric, metric_attributes
+
+    limits = {}
+    for item in items:
+        name, sep, text = (part.strip() for part in item.partition("="))
+        if not sep or not name or not text:
+            raise _usage(f"--limit '{item}': expected METRIC=VALUE, e.g. --limit "
+                         "'peak.h1.torque=8 N*m'")
+        if not known_metric(name, module):
+            raise _usage(f"--limit '{item}': no metric '{name}' in a study of this model "
+                         "(deployed, time_to_deploy, event.<name>.<key>, peak.<hinge>.force, "
+                         "peak.<hinge>.torque, dissipated.<kind>, final.<output>; "
+                         "docs/api.md, Metrics)")
+        unit = metric_attributes(name, module).get("units", "")
+        try:
+            value, dim = parse_quantity(text)
+            wanted = parse_quantity(f"1 {unit}")[1] if unit not in ("", "1") else dim
+        except ValueError as exc:
+            raise _usage(f"--limit '{item}': {exc}") from None
+        if dim != wanted and dim != type(dim)():
+            raise _usage(f"--limit '{item}': {name} is in {unit}; '{text}' has another "
+                         "dimension")
+        limits[name] = value
+    return limits
 
 
 def _check_outputs(model: str, outputs) -> None:

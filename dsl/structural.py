@@ -102,6 +102,17 @@ def _binary(node: BinaryOp, loop, structural) -> Fraction:
         if right == 0:
             raise NotFixed(node, "division by zero")
         return left / right
+    return _power(node, left, right)
+
+
+def _power(node: BinaryOp, left: Fraction, right: Fraction) -> Fraction:
+    """left ^ right for a whole exponent. A power of 1, -1 or 0 keeps its size, so it is
+    taken for any whole exponent (`(-1)^i` for every i a loop may count to); any other
+    base only for exponents from -MAX_POWER to MAX_POWER."""
+    if right.denominator == 1 and abs(left) in (0, 1) and not (left == 0 and right < 0):
+        if left == 0:
+            return Fraction(1) if right == 0 else Fraction(0)
+        return left if right.numerator % 2 else abs(left)
     if right.denominator != 1 or abs(right) > MAX_POWER:
         raise NotFixed(node.right, f"an exponent here is a whole number from -{MAX_POWER} "
                        f"to {MAX_POWER}")

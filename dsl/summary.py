@@ -70,7 +70,7 @@ def _beams(model: Model, values: list[float]) -> list[str]:
                 f"EI {quantity(beam.EI, Dim(1, 3, -2), values)}, "
                 f"EA {quantity(beam.EA, Dim(1, 1, -2), values)}, "
                 f"mass_per_length {quantity(beam.mass_per_length, Dim(1, -1), values)}, "
-                f"{beam.elements} elements")
+                f"{beam.elements} element{'s' * (beam.elements != 1)}")
         if beam.damping is not None:
             text += f", damping {quantity(beam.damping, Dim(time=1), values)}"
         lines += _wrap(text)

@@ -1,9 +1,15 @@
 """`animate`: the mechanism moving, as a GIF (matplotlib animation, PillowWriter) or, when
 ffmpeg is installed, an MP4 (FFMpegWriter): the file's extension chooses (ANIMATION_FORMATS).
 
-Members are drawn as lines, beams as node polylines, hinges as dots: a black circle while
-free, a red square once its latch has engaged, an orange diamond while a stop or stick-slip
-lock holds it. The geometry comes from the generated module:
+Rigid members are drawn as outlines through their points: the convex polygon of a body's
+points, a box along a bar (or any member whose points lie on a line), a square the size of its
+radius of gyration around a body of one point. Members lying on one another (a stowed array's
+panels) stay apart: each has its own colour, and the boxes of later members are thinner, so
+stacked panels show as nested boxes. Beams are node polylines; hinges are dots: a black
+circle while free, a red square once its latch has engaged, an orange diamond while a stop
+or stick-slip lock holds it. A member's points come from `outlines` when given ({member:
+points in its own frame}, what the model text declares: `depsim.api.Simulator.outlines`);
+otherwise they are reconstructed as below. The geometry comes from the generated module:
 
 * preferred (docs/deployment.md, section 7, asked of codegen): `POINTS` (names), `points(q, p)`
   -> (NPT, 2) world positions (m), `MEMBER_POINTS` (one tuple of point indices per member,
@@ -53,12 +59,14 @@ def _writer(path: str | os.PathLike, fps: float):
 
 
 def animate(result, module, path, fps: float = 20.0, max_frames: int = MAX_FRAMES,
-            params=None) -> int:
+            params=None, outlines=None) -> int:
     """Write an animation of `result` (a Result of `module`) to `path`, a GIF or an MP4 by its
     extension (OutputError for another, or for an MP4 without ffmpeg); returns the frame count.
 
     Frames are the output times, thinned evenly to at most `max_frames` (the last always
     included); `fps` frames per second. params: the module parameters (default: the run's).
+    outlines: {member: (k, 2) points in its frame (m, from its centre of mass)}, else the
+    points are reconstructed from the module (module docstring).
     The file is written through `output.atomic_path`, so a failure leaves no partial file.
     """
     writer = _writer(path, fps)
@@ -66,22 +74,30 @@ def animate(result, module, path, fps: float = 20.0, max_frames: int = MAX_FRAME
     from matplotlib.figure import Figure
 
     p = np.asarray(result.parameters if params is None else params, dtype=float)
-    geometry = Geometry(module, p)
+    geometry = Geometry(module, p, outlines)
     frames = _frame_indices(len(result.times), max_frames)
     shapes = [geometry.shapes(result.q[i]) for i in frames]
+    drawn = [geometry.outlines(result.q[i]) for i in frames]
     states = [_hinge_states(result, i) for i in frames]
 
     figure = Figure(figsize=(6, 6), dpi=DPI)
     figure.subplots_adjust(left=0.13, right=0.97, bottom=0.09, top=0.94)
     FigureCanvasAgg(figure)
     ax = figure.add_subplot()
-    _set_limits(ax, shapes)
+    _set_limits(ax, [(outline, hinges) for outline, (_, hinges) in zip(drawn, shapes)])
     ax.set_aspect("equal")
     ax.grid(True, alpha=0.3)
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
+    from matplotlib.colors import to_rgba
+    from matplotlib.patches import Polygon
+
+    # a solid edge and a light fill each: members lying on one another show as nested boxes
+    bodies = [ax.add_patch(Polygon(np.zeros((3, 2)), closed=True, lw=1.6, zorder=2 + i,
+                                   edgecolor=f"C{i % 10}", facecolor=to_rgba(f"C{i % 10}", 0.3)))
+              if closed else None for i, closed in enumerate(geometry.closed)]
     lines = [ax.plot([], [], "-", lw=2.5, color=f"C{i % 10}", solid_capstyle="round")[0]
-             for i, _ in enumerate(geometry.member_names)]
+             if not closed else None for i, closed in enumerate(geometry.closed)]
     styles = {"free": ("o", "black"), "latched": ("s", "tab:red"), "held": ("D", "tab:orange")}
     markers = {s: ax.plot([], [], ls="none", marker=m, color=c, ms=7, label=s)[0]
                for s, (m, c) in styles.items()}
@@ -89,14 +105,17 @@ def animate(result, module, path, fps: float = 20.0, max_frames: int = MAX_FRAME
     title = ax.set_title("")
 
     def draw(k):
-        members, hinges = shapes[k]
-        for line, polyline in zip(lines, members):
-            line.set_data(polyline[:, 0], polyline[:, 1])
+        hinges = shapes[k][1]
+        for body, line, outline in zip(bodies, lines, drawn[k]):
+            if body is not None:
+                body.set_xy(outline)
+            else:
+                line.set_data(outline[:, 0], outline[:, 1])
         for state, marker in markers.items():
             chosen = [j for j, s in enumerate(states[k]) if s == state]
             marker.set_data(hinges[chosen, 0], hinges[chosen, 1])
         title.set_text(f"{result.model}   t = {result.times[frames[k]]:.2f} s")
-        return [*lines, *markers.values(), title]
+        return [*filter(None, bodies + lines), *markers.values(), title]
 
     with atomic_path(path) as tmp, writer.saving(figure, tmp, dpi=DPI):
         for k in range(len(frames)):  # one draw per frame (FuncAnimation draws twice)
@@ -131,6 +150,7 @@ def _hinge_states(result, i: int) -> list[str]:
 
 def _set_limits(ax, shapes) -> None:
     every = np.concatenate([np.concatenate(members + [hinges]) for members, hinges in shapes])
+    every = every[np.isfinite(every).all(axis=1)]
     lo, hi = every.min(axis=0), every.max(axis=0)
     centre, half = (lo + hi) / 2, max(float(np.max(hi - lo)) / 2, 1e-3) * 1.1
     ax.set_xlim(centre[0] - half, centre[0] + half)
@@ -138,19 +158,74 @@ def _set_limits(ax, shapes) -> None:
 
 
 class Geometry:
-    """Member polylines and hinge positions (m) of a module at any q (module docstring)."""
+    """Member polylines and outlines, hinge positions (m) of a module at any q (module
+    docstring). outlines: {member: (k, 2) points in its frame}, else reconstructed."""
 
-    def __init__(self, module, p):
+    def __init__(self, module, p, outlines=None):
         self.module = module
         self.p = p
+        self.given = {name: np.asarray(points, dtype=float).reshape(-1, 2)
+                      for name, points in (outlines or {}).items()}
         self.preferred = all(hasattr(module, n) for n in ("points", "MEMBER_POINTS",
                                                           "HINGE_POINTS"))
         if self.preferred:
             names = getattr(module, "MEMBERS", None)
             self.member_names = tuple(names or (f"member{i}" for i in
                                                 range(len(module.MEMBER_POINTS))))
+            self.closed = (False,) * len(self.member_names)
         else:
             self._reconstruct()
+            self.closed = (True,) * len(self.rigid) + (False,) * (len(self.member_names)
+                                                                  - len(self.rigid))
+        self._local: list[np.ndarray] | None = None  # each rigid member's outline, own frame
+
+    def outlines(self, q) -> list[np.ndarray]:
+        """What is drawn of each member at q (m, world): a closed outline (k, 2) for a
+        rigid member (`self.closed`), the polyline of `shapes` for a beam."""
+        members, hinges = self.shapes(q)
+        if self.preferred:
+            return members
+        if self._local is None:
+            self._local = self._local_outlines(q, hinges)
+        out = []
+        for k, member in enumerate(self.rigid):
+            ix, iy, iphi = (self.coords[f"{member}.{c}"] for c in ("x", "y", "phi"))
+            c, s = np.cos(q[iphi]), np.sin(q[iphi])
+            out.append(self._local[k] @ np.array([[c, s], [-s, c]]) + [q[ix], q[iy]])
+        return out + members[len(self.rigid):]
+
+    def _local_outlines(self, q, hinges) -> list[np.ndarray]:
+        """Each rigid member's outline in its own frame, from its points: those given, else
+        its bar ends, declared points and hinge points. Boxes get thinner member by member,
+        so members lying on one another stay apart."""
+        points = [self.given.get(m) if m in self.given else self._points(m, q, hinges)
+                  for m in self.rigid]
+        spans = [_span(p) for p in points if _span(p) > 0]
+        size = float(np.median(spans)) if spans else 1.0
+        count = max(1, len(self.rigid) - 1)
+        return [member_outline(p, size * (0.08 - 0.06 * k / count))
+                for k, p in enumerate(points)]
+
+    def _points(self, member: str, q, hinges) -> np.ndarray:
+        """A member's points in its frame from the module: the ends of a bar with a
+        `<m>.length` parameter, points with `<m>.<point>.local_x/_y` parameters, and the
+        hinges on it (placed at q)."""
+        params = {name: i for i, name in enumerate(self.module.PARAMETERS)}
+        found = [np.zeros(2)]
+        if f"{member}.length" in params:
+            half = 0.5 * self.p[params[f"{member}.length"]]
+            found += [np.array([-half, 0.0]), np.array([half, 0.0])]
+        for name, i in params.items():
+            head, _, tail = name.rpartition(".local_x")
+            if not tail and head.startswith(f"{member}.") and f"{head}.local_y" in params:
+                found.append(np.array([self.p[i], self.p[params[f"{head}.local_y"]]]))
+        ix, iy, iphi = (self.coords[f"{member}.{c}"] for c in ("x", "y", "phi"))
+        c, s = np.cos(q[iphi]), np.sin(q[iphi])
+        for k in self._own[member]:
+            if np.all(np.isfinite(hinges[k])):
+                d = hinges[k] - [q[ix], q[iy]]
+                found.append(np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1]]))
+        return np.array(found)
 
     def shapes(self, q) -> tuple[list[np.ndarray], np.ndarray]:
         """(one (k, 2) polyline per member, hinge positions (NH, 2))."""
@@ -176,6 +251,7 @@ class Geometry:
                 beams.setdefault(beam, []).append((int(node[1:]), coords[name]))
         self.coords = coords
         self.rigid = rigid
+        self._own: dict[str, list[int]] = {}  # the hinges on each rigid member
         self.member_names = tuple(rigid) + tuple(beams)
         self._rows = self._hinge_rows()
         self._drawers = [self._rigid_drawer(m, params) for m in rigid]
@@ -219,6 +295,7 @@ class Geometry:
         length = params.get(f"{member}.length")
         own = [k for k, h in enumerate(self.module.HINGES)
                if self._rows[k] is not None and self._touches(member, k)]
+        self._own[member] = own
 
         def draw(q, hinges):
             centre = np.array([q[ix], q[iy]])
@@ -243,3 +320,57 @@ class Geometry:
             return np.array([[q[i], q[i + 1]] for _, i in nodes])
 
         return draw
+
+
+def member_outline(points: np.ndarray, half: float) -> np.ndarray:
+    """A closed outline (k, 2) around a member's points (its own frame, m): their convex
+    polygon; a box of half-width `half` along them when they lie on a line (a bar); a square
+    of half-side `half` around a single point."""
+    points = np.unique(np.asarray(points, dtype=float).reshape(-1, 2), axis=0)
+    span = _span(points)
+    if len(points) >= 3 and span > 0:
+        hull = _convex_hull(points)
+        if len(hull) >= 3 and _area(hull) > 1e-6 * span * span:
+            return hull
+    if span == 0:
+        centre = points[0] if len(points) else np.zeros(2)
+        return centre + half * np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]], dtype=float)
+    distances = np.linalg.norm(points[:, None] - points[None], axis=2)
+    i, j = np.unravel_index(np.argmax(distances), distances.shape)
+    axis = (points[j] - points[i]) / span
+    normal = half * np.array([-axis[1], axis[0]])
+    return np.array([points[i] - normal, points[j] - normal, points[j] + normal,
+                     points[i] + normal])
+
+
+def _span(points: np.ndarray) -> float:
+    """The largest distance between two of the points."""
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    if len(points) < 2:
+        return 0.0
+    return float(np.linalg.norm(points[:, None] - points[None], axis=2).max())
+
+
+def _convex_hull(points: np.ndarray) -> np.ndarray:
+    """The convex hull's corners, counter-clockwise (Andrew's monotone chain)."""
+    ordered = sorted(map(tuple, points))
+
+    def chain(sequence):
+        out: list = []
+        for point in sequence:
+            while len(out) >= 2 and _cross(out[-2], out[-1], point) <= 0:
+                out.pop()
+            out.append(point)
+        return out
+
+    lower, upper = chain(ordered), chain(reversed(ordered))
+    return np.array(lower[:-1] + upper[:-1])
+
+
+def _cross(o, a, b) -> float:
+    return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+
+def _area(polygon: np.ndarray) -> float:
+    x, y = polygon[:, 0], polygon[:, 1]
+    return 0.5 * abs(float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))

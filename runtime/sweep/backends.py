@@ -19,6 +19,8 @@ import math
 import multiprocessing
 import os
 import pickle
+import sys
+import types
 from collections.abc import Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
@@ -61,18 +63,29 @@ def _failed(index: int, message: str) -> dict:
             "wall": math.nan, "series": None}
 
 
-def _dumps(obj) -> bytes:
-    """Pickle, with cloudpickle (ships with dask) for lambdas and local functions."""
-    try:
-        return pickle.dumps(obj)
-    except (pickle.PicklingError, AttributeError, TypeError):
+def _dumps(config: RunConfig) -> bytes:
+    """Pickle the run config for the pool's workers. They do not run the parent's `__main__`
+    (`_Context`), so a metric or simulate function defined there goes by value, with
+    cloudpickle (which ships with dask), as do lambdas and local functions."""
+    if not _from_main(config):
         try:
-            import cloudpickle
-        except ImportError:
-            raise StudyError("metrics and simulate must be picklable (module-level functions) "
-                             "for the process pool; install cloudpickle or use "
-                             "scheduler='inline'") from None
-        return cloudpickle.dumps(obj)
+            return pickle.dumps(config)
+        except (pickle.PicklingError, AttributeError, TypeError):
+            pass
+    try:
+        import cloudpickle
+    except ImportError:
+        raise StudyError("metrics and simulate must be module-level functions of an "
+                         "importable module for the process pool; install cloudpickle or "
+                         "use scheduler='inline'") from None
+    return cloudpickle.dumps(config)
+
+
+def _from_main(config: RunConfig) -> bool:
+    """Whether a function of the config (or its class) is defined in `__main__`."""
+    functions = [*(config.metrics or {}).values(), config.simulate]
+    return any(getattr(f, "__module__", None) == "__main__"
+               or type(f).__module__ == "__main__" for f in functions if f is not None)
 
 
 def run_inline(ref: ModuleRef, config: RunConfig, matrix: np.ndarray,
@@ -101,10 +114,31 @@ def _worker_environment():
             os.environ.pop(name, None)
 
 
+class _WorkerProcess(multiprocessing.context.SpawnProcess):
+    """A spawned worker that does not import the parent's `__main__` again. Spawn imports
+    the main script in every child (hence Python's rule that a script starting processes
+    guards its work with `if __name__ == "__main__":`); a study's workers need nothing of it
+    (the config comes pickled, functions of `__main__` by value: `_dumps`), so a script
+    that calls a study without the guard works, and is not run again in each worker."""
+
+    @staticmethod
+    def _Popen(process_obj):
+        main = sys.modules["__main__"]
+        sys.modules["__main__"] = types.ModuleType("__main__")  # no file to import
+        try:
+            return multiprocessing.context.SpawnProcess._Popen(process_obj)
+        finally:
+            sys.modules["__main__"] = main
+
+
+class _Context(multiprocessing.context.SpawnContext):
+    Process = _WorkerProcess
+
+
 def _context():
     # spawn, not forkserver: a fork server started earlier in this process would hand the
     # workers its own environment, not the one set by _worker_environment.
-    return multiprocessing.get_context("spawn")
+    return _Context()
 
 
 def _kill(pool: ProcessPoolExecutor) -> None:
@@ -190,8 +224,7 @@ def run_pool(ref: ModuleRef, config: RunConfig, matrix: np.ndarray,
                 elif consecutive_deaths >= 3:  # nothing ever worked: not the runs' fault
                     raise StudyError("worker processes die at start-up or on every run; "
                                      "check that the generated module imports in a fresh "
-                                     "Python process (and that a script calling the sweep "
-                                     "guards it with `if __name__ == '__main__':`)")
+                                     "Python process")
             else:
                 quarantine.extend(i for batch in broken for i in batch)
             pool = new_pool()

@@ -1,18 +1,27 @@
-"""Per-run metrics: named functions of a `Result`.
+"""Per-run metrics: named functions of a `Result`, each with its unit.
 
-A metric is `name -> f(result) -> float`. The built-in ones (on unless `builtin=False`):
+A metric is `name -> f(result) -> float`. The built-in ones (on unless `builtin=False`), read
+from what the run reports (`Result.deployment`, `Result.peak_loads`, `Result.events`,
+`Result.dissipated`; docs/deployment.md), never recomputed:
 
-    event.<name>.t      time of the first occurrence of every event (NaN: it never happened)
-    event.<name>.<key>  each number the runtime attached to that first occurrence
-    deployed            1.0 when every latch event happened by t_end, else 0.0 (only for
-                        models with latches)
-    peak.<name>         peak loads, when the Result provides them (`result.peaks`, a mapping)
-    final.<output>      the last value of every output
-    stats.<field>       every numeric run statistic (accepted_steps, rejected_steps,
-                        position.total iterations, ...), nested fields joined with dots
+    deployed             1 when every latch engaged by t_end, else 0 (models with latches)
+    time_to_deploy       s: when the last latch engaged (NaN: not deployed)
+    event.<name>.t       s: the first occurrence of every event (NaN: it never happened)
+    event.<name>.<key>   each number the runtime attached to that first occurrence: for a
+                         latch `rate` (rad/s, just before), `impulse` (N*m*s),
+                         `impact_energy_loss` (J), `angle` (rad), `rigid`
+    peak.<hinge>.force   N: the largest hinge force; `.t_force` its time (s)
+    peak.<hinge>.torque  N*m: the largest lock torque; `.t_torque` its time (s)
+    dissipated.<kind>    J: energy dissipated by friction, damping, latch dampers, inputs
+                         (`friction`, `damping`, `latch`, `input`) and impacts (`impact`)
+    final.<output>       the last value of every output, in its unit
+    stats.<field>        every numeric run statistic (accepted_steps, rejected_steps,
+                         position.total iterations, ...), nested fields joined with dots
 
-User metrics are added by name; a name that collides with a built-in replaces it. A metric that
-raises gives NaN for that run and the error text is kept with the run.
+`metric_attributes(name, module, metrics)` gives each its unit and a description. User metrics
+are added by name (a function's `units` attribute, if any, is its unit); a name that collides
+with a built-in replaces it. A metric that raises gives NaN for that run and the error text is
+kept with the run.
 """
 
 from __future__ import annotations
@@ -25,11 +34,9 @@ from collections.abc import Callable, Mapping
 import numpy as np
 
 __all__ = ["Metric", "builtin_metrics", "latch_events", "result_times", "result_output",
-           "result_events", "result_stats", "evaluate"]
+           "result_events", "result_stats", "evaluate", "metric_attributes", "known_metric"]
 
 Metric = Callable[[object], float]
-
-
 def result_times(result) -> np.ndarray:
     for attr in ("times", "t", "time"):
         value = getattr(result, attr, None)
@@ -132,19 +139,17 @@ def builtin_metrics(result, module) -> dict[str, float]:
     for event in getattr(result, "events", None) or ():
         name, t, data = _event(event)
         first.setdefault(name, (t, data))
+    values.update(_deployment(result, module, first))
     for name in sorted(first):
         t, data = first[name]
         values[f"event.{name}.t"] = t
-        for key, value in sorted(data.items()):  # e.g. energy lost at a latch
+        for key, value in sorted(data.items()):  # e.g. a latch's rate and impulse
             if _is_number(value):
                 values[f"event.{name}.{key}"] = float(value)
-    latches = latch_events(module, getattr(result, "parameters", None))
-    if latches:
-        values["deployed"] = float(all(name in first for name in latches))
-    peaks = getattr(result, "peaks", None)
-    if isinstance(peaks, Mapping):
-        for name, value in peaks.items():
-            values[f"peak.{name}"] = float(value)
+    for hinge, peak in (getattr(result, "peak_loads", None) or {}).items():
+        for field in PEAK_FIELDS:
+            values[f"peak.{hinge}.{field}"] = float(getattr(peak, field))
+    values.update(_dissipated(result))
     for name in result_output_names(result, module):
         series = result_output(result, name)
         values[f"final.{name}"] = float(series[-1]) if series.size else math.nan
@@ -153,15 +158,118 @@ def builtin_metrics(result, module) -> dict[str, float]:
     return values
 
 
+def _deployment(result, module, first: Mapping[str, tuple]) -> dict[str, float]:
+    """deployed and time_to_deploy from the run's deployment summary; from its latch events
+    for a Result without one (another runtime)."""
+    deployment = getattr(result, "deployment", None)
+    if deployment is not None:
+        if deployment.deployed is None:  # no latch
+            return {}
+        time = deployment.time if deployment.time is not None else math.nan
+        return {"deployed": float(deployment.deployed), "time_to_deploy": float(time)}
+    latches = latch_events(module, getattr(result, "parameters", None))
+    if not latches:
+        return {}
+    deployed = all(name in first for name in latches)
+    return {"deployed": float(deployed),
+            "time_to_deploy": max(first[n][0] for n in latches) if deployed else math.nan}
+
+
+def _dissipated(result) -> dict[str, float]:
+    """Energy dissipated by the end of the run, by kind: the dissipators' prefixes
+    (friction.<h>, damping.<h>, latch.<h>, input.<u>) and the impacts."""
+    names = tuple(getattr(result, "dissipator_names", ()) or ())
+    dissipated = getattr(result, "dissipated", None)
+    out: dict[str, float] = {}
+    if names and dissipated is not None and len(dissipated):
+        for name, value in zip(names, np.asarray(dissipated, dtype=float)[-1]):
+            kind = f"dissipated.{name.split('.', 1)[0]}"
+            out[kind] = out.get(kind, 0.0) + float(value)
+    deployment = getattr(result, "deployment", None)
+    if deployment is not None:
+        out["dissipated.impact"] = float(deployment.impact_energy)
+    return out
+
+
 def static_metric_names(module, metrics: Mapping[str, Metric] | None, builtin: bool) -> list[str]:
     """Metric names known before any run (event names are only known from the runs)."""
     names = []
     if builtin:
         if latch_events(module):
-            names.append("deployed")
+            names += ["deployed", "time_to_deploy"]
         names += [f"final.{o}" for o in getattr(module, "OUTPUTS", ())]
     names += [n for n in (metrics or {}) if n not in names]
     return names
+
+
+# --- units and descriptions -------------------------------------------------------------------
+
+PEAK_FIELDS = ("force", "t_force", "torque", "t_torque")  # runtime.loads.PeakLoad
+_PEAKS = {"force": ("N", "peak hinge force"), "t_force": ("s", "time of the peak hinge force"),
+          "torque": ("N*m", "peak lock torque"), "t_torque": ("s", "time of the peak lock torque")}
+# the numbers the integrator core records with a hinge's events (docs/deployment.md, 1)
+_EVENT_DATA = {"t": ("s", "time"), "rate": ("rad/s", "rate just before"),
+               "impulse": ("N*m*s", "angular impulse"),
+               "impact_energy_loss": ("J", "energy lost in the impact"),
+               "angle": ("rad", "angle"), "torque": ("N*m", "holding torque"),
+               "direction": ("1", "direction"), "rigid": ("1", "rigid (1) or compliant (0)")}
+_HINGE_EVENTS = ("latch", "latch.contact", "latch.separation", "stop", "stick", "slip")
+_DISSIPATED = {"friction": "hinge friction", "damping": "dampers", "latch": "latch dampers",
+               "input": "inputs (negative: work done)", "impact": "impacts (latches, stops)"}
+_STATS = {"min_step": "s", "max_step": "s", "implicit_from": "s", "stiff_rate": "1/s",
+          "max_v_pos": "", "max_v_vel": "", "max_v_acc": ""}  # residuals mix m and rad
+
+
+def metric_attributes(name: str, module, metrics: Mapping[str, Metric] | None = None) -> dict:
+    """The unit (`units`, SI text; "1" for a pure number, absent when unknown) and a
+    `long_name` of metric `name` of a study of `module`."""
+    unit, text = _describe(name, module, metrics or {})
+    return {"units": unit, "long_name": text} if unit else {"long_name": text}
+
+
+def _describe(name: str, module, metrics: Mapping[str, Metric]) -> tuple[str, str]:
+    if name in metrics:
+        return str(getattr(metrics[name], "units", "") or ""), name
+    if name == "deployed":
+        return "1", "deployed (1) or not (0) by t_end"
+    if name == "time_to_deploy":
+        return "s", "time to full deployment (the last latch)"
+    group, _, rest = name.partition(".")
+    if group == "event":
+        event, _, key = rest.rpartition(".")
+        unit, text = _EVENT_DATA.get(key, ("", key))
+        hinge, _, kind = event.partition(".")
+        mechanism = hinge in getattr(module, "HINGES", ()) and kind in _HINGE_EVENTS
+        return (unit if mechanism or key == "t" else ""), f"{event}: {text}"
+    if group == "peak":
+        hinge, _, field = rest.rpartition(".")
+        unit, text = _PEAKS.get(field, ("", field))
+        return unit, f"{text} at {hinge}"
+    if group == "dissipated":
+        return "J", f"energy dissipated by {_DISSIPATED.get(rest, rest)}"
+    if group == "final":
+        outputs = tuple(getattr(module, "OUTPUTS", ()))
+        units = tuple(getattr(module, "OUTPUT_UNITS", ()))
+        unit = units[outputs.index(rest)] if rest in outputs and len(units) == len(outputs) \
+            else ""
+        return unit, f"{rest} at the end of the run"
+    if group == "stats":
+        return _STATS.get(rest, "1"), f"run statistic {rest}"
+    return "", name
+
+
+def known_metric(name: str, module) -> bool:
+    """Whether `name` is a built-in metric a study of `module` may have (events and run
+    statistics: any name of their form; they are only known once runs are done)."""
+    group, _, rest = name.partition(".")
+    if name in ("deployed", "time_to_deploy"):
+        return True
+    if group in ("event", "stats", "dissipated"):
+        return bool(rest)
+    if group == "peak":
+        hinge, _, field = rest.rpartition(".")
+        return hinge in getattr(module, "HINGES", ()) and field in PEAK_FIELDS
+    return group == "final" and rest in getattr(module, "OUTPUTS", ())
 
 
 def evaluate(result, module, metrics: Mapping[str, Metric] | None,

@@ -13,7 +13,8 @@ import hashlib
 import json
 import math
 import os
-from collections.abc import Iterable, Mapping, Sequence
+import re
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -152,37 +153,51 @@ def _line(record: dict) -> str:
     return json.dumps(record, allow_nan=True, separators=(",", ":")) + "\n"
 
 
+METRIC_GROUPS = ("deployed", "time_to_deploy", "event.", "peak.", "dissipated.", "final.",
+                 "stats.")  # the order of the built-in metrics in a study
+
+
 def metric_order(records: Iterable[dict], static: Sequence[str],
                  user: Sequence[str]) -> list[str]:
-    """Every metric name in a stable order: event times, deployed, peaks, final outputs,
-    run statistics (first-seen order), then user metrics in the order given."""
+    """Every metric name in a stable order: deployed, time to deploy, events, peak loads,
+    dissipated energies (each sorted by name), final outputs, run statistics (first-seen
+    order), then user metrics in the order given."""
     seen: dict[str, None] = {}
     for name in static:
         seen.setdefault(name, None)
     for record in records:
         for name in record.get("values", {}):
             seen.setdefault(name, None)
-    names = list(seen)
     user = [n for n in user if n in seen]
-    rest = [n for n in names if n not in user]
+    rest = [n for n in seen if n not in user]
 
     def group(name: str) -> int:
-        for rank, prefix in enumerate(("event.", "deployed", "peak.", "final.", "stats.")):
-            if name == prefix or name.startswith(prefix):
+        for rank, prefix in enumerate(METRIC_GROUPS):
+            if name == prefix or (prefix.endswith(".") and name.startswith(prefix)):
                 return rank
-        return 5
+        return len(METRIC_GROUPS)
 
-    events = sorted(n for n in rest if group(n) == 0)
-    peaks = sorted(n for n in rest if group(n) == 2)
-    ordered = events + [n for n in rest if group(n) == 1] + peaks
-    ordered += [n for n in rest if group(n) in (3, 4, 5)]
-    return ordered + user
+    ordered = []
+    for rank, prefix in enumerate(METRIC_GROUPS):
+        members = [n for n in rest if group(n) == rank]
+        natural = prefix in ("event.", "peak.", "dissipated.")
+        ordered += sorted(members, key=_natural) if natural else members
+    return ordered + [n for n in rest if group(n) == len(METRIC_GROUPS)] + user
+
+
+def _natural(name: str) -> list:
+    """A sort key taking numbers as numbers: h2 before h10, panel[9] before panel[10]."""
+    return [int(part) if part.isdigit() else part for part in re.split(r"(\d+)", name)]
 
 
 def build_dataset(records: Mapping[int, dict], design, *, static_metrics: Sequence[str],
                   user_metrics: Sequence[str], output_names: Sequence[str],
-                  time_grid: np.ndarray | None, attrs: Mapping[str, object]):
-    """The study as an xarray Dataset (dims `run`, and `time` with a time grid)."""
+                  time_grid: np.ndarray | None, attrs: Mapping[str, object],
+                  describe: Callable[[str], dict] | None = None,
+                  parameter_units: Sequence[str] | None = None):
+    """The study as an xarray Dataset (dims `run`, and `time` with a time grid).
+    describe(name): a metric's attributes (`units`, `long_name`); parameter_units: the SI
+    unit of each parameter, in `design.parameter_names` order."""
     import xarray as xr
 
     runs = design.runs
@@ -200,7 +215,7 @@ def build_dataset(records: Mapping[int, dict], design, *, static_metrics: Sequen
             value = record.get("values", {}).get(name)
             if value is not None:
                 column[i] = value
-        data[name] = ("run", column, _metric_attrs(name))
+        data[name] = ("run", column, describe(name) if describe else {})
     data["failed"] = ("run", np.array([bool(r["failed"]) for r in ordered]),
                       {"description": "the simulation raised (its metrics are NaN)"})
     data["error"] = ("run", np.array([str(r.get("error") or "") for r in ordered], dtype=str),
@@ -210,8 +225,13 @@ def build_dataset(records: Mapping[int, dict], design, *, static_metrics: Sequen
     data["parameter_values"] = (("run", "parameter"), np.array(design.matrix, dtype=float),
                                 {"description": "the full parameter vector of each run (SI)"})
     coords = {"run": np.arange(runs), "parameter": np.array(design.parameter_names, dtype=str)}
+    units = dict(zip(design.parameter_names, parameter_units or ()))
+    if parameter_units is not None:
+        coords["parameter_unit"] = ("parameter", np.array(parameter_units, dtype=str),
+                                    {"description": "SI unit of each parameter"})
     for name in design.varied:
-        coords[name] = ("run", design.values(name).copy())
+        coords[name] = ("run", design.values(name).copy(),
+                        {"units": units[name]} if units.get(name) else {})
     if time_grid is not None:
         coords["time"] = ("time", np.asarray(time_grid, dtype=float), {"units": "s"})
         for k, out in enumerate(output_names):
@@ -223,19 +243,6 @@ def build_dataset(records: Mapping[int, dict], design, *, static_metrics: Sequen
             data[f"output.{out}"] = (("run", "time"), block)
     ds = xr.Dataset(data, coords=coords, attrs={k: v for k, v in attrs.items() if v is not None})
     return ds
-
-
-def _metric_attrs(name: str) -> dict:
-    if name.startswith("event."):
-        return {"units": "s", "description": f"time of the first '{name[6:-2]}' event "
-                                             "(NaN: it did not happen)"}
-    if name == "deployed":
-        return {"description": "1 when every latch event happened by t_end, else 0"}
-    if name.startswith("final."):
-        return {"description": f"value of output '{name[6:]}' at the end of the run"}
-    if name.startswith("stats."):
-        return {"description": f"run statistic '{name[6:]}'"}
-    return {}
 
 
 def write_dataset(ds, path: str | os.PathLike) -> Path:

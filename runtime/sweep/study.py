@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import functools
 import importlib.util
 import math
 import os
@@ -19,7 +20,7 @@ import numpy as np
 from ..output import when_written
 from ..results import MAX_OUTPUT_ROWS, check_output_rows
 from . import backends
-from .metrics import Metric, static_metric_names
+from .metrics import Metric, metric_attributes, static_metric_names
 from .progress import ProgressBar, StudyProgress
 from .spec import Design, SweepSpecError, make_design
 from .storage import (Checkpoint, CheckpointError, build_dataset, check_store, fingerprint,
@@ -51,7 +52,10 @@ class Study:
       final outputs, run statistics.
     time_grid: None, a number of points from 0 to t_end, or explicit times (s): every output
       sampled there, as variables `output.<name>` with dims (run, time).
-    simulate: replaces depsim.runtime.simulate (tests, other runtimes); same signature."""
+    simulate: replaces depsim.runtime.simulate (tests, other runtimes); same signature.
+    check: the model's range checks, f(parameter vector) -> [message, ...] ([] when every
+      range holds); a run it objects to is recorded as failed with those messages and is
+      not simulated (the facade passes `depsim.dsl.check_parameters`, as `--set` uses)."""
 
     module_path: Path
     design: Design
@@ -62,6 +66,10 @@ class Study:
     builtin_metrics: bool = True
     time_grid: np.ndarray | int | None = None
     simulate: Callable | None = None
+    check: Callable[[np.ndarray], list[str]] | None = None
+
+
+OUT_OF_RANGE = "out of the model's ranges"  # the error text of a run the check refused
 
 
 def _time_grid(study: Study, module: ModuleType) -> np.ndarray | None:
@@ -126,10 +134,12 @@ def run_study(study: Study, *, workers: int | None = None, scheduler=None,
         if resume:
             records = checkpoint.load()
         checkpoint.open(records)
+    _refuse_out_of_range(study, records, checkpoint)
     _run_missing(plan, records, checkpoint, workers, scheduler, batch_size, progress, on_batch)
     ds = build_dataset(records, study.design, static_metrics=plan.static,
                        user_metrics=list(plan.config.metrics), output_names=plan.outputs,
-                       time_grid=plan.config.time_grid, attrs=plan.attrs)
+                       time_grid=plan.config.time_grid, attrs=plan.attrs,
+                       describe=plan.describe, parameter_units=plan.parameter_units)
     if store is not None:
         write_dataset(ds, store)
         # the checkpoint goes once the file is in place (inside `output.all_or_none`, at the
@@ -150,6 +160,8 @@ class _Plan:
     outputs: tuple[str, ...]
     fingerprint: str
     attrs: dict
+    describe: Callable[[str], dict]  # a metric's units and long_name
+    parameter_units: tuple[str, ...] | None
 
 
 def _plan(study: Study) -> _Plan:
@@ -174,8 +186,11 @@ def _plan(study: Study) -> _Plan:
     settings = {"t_end": study.t_end, "dt_out": study.dt_out, "tol": study.tol,
                 "builtin_metrics": study.builtin_metrics}
     fp = fingerprint(ref.sha256, names, design.matrix, settings, static, grid)
+    units = getattr(module, "PARAMETER_UNITS", None)
     return _Plan(ref, design, config, static, tuple(getattr(module, "OUTPUTS", ())), fp,
-                 _attributes(study, module, ref, fp))
+                 _attributes(study, module, ref, fp),
+                 functools.partial(metric_attributes, module=module, metrics=metrics),
+                 tuple(units) if units is not None and len(units) == len(names) else None)
 
 
 def _output_interval(study: Study, module: ModuleType, metrics: dict,
@@ -226,6 +241,7 @@ def _attributes(study: Study, module: ModuleType, ref: ModuleRef, fp: str) -> di
         "module_sha256": ref.sha256,
         "depsim_version": _version(),
         "generated_by_depsim": str(getattr(module, "DEPSIM_VERSION", "")),
+        "target": "c" if Path(ref.path).suffix in (".so", ".dylib", ".dll") else "numpy",
         "study_kind": design.kind,
         "spec": design.spec,
         "seed": design.seed,
@@ -260,6 +276,26 @@ def _complete_study(store: Path, fp: str):
     return existing
 
 
+def _refuse_out_of_range(study: Study, records: dict, checkpoint) -> None:
+    """Record every run whose parameters break a range of the model (`study.check`) as
+    failed, with the ranges it breaks, without running it: a negative friction or length
+    gives no answer worth having (a run may well complete with it)."""
+    if study.check is None:
+        return
+    refused = []
+    for index in range(study.design.runs):
+        if index in records:
+            continue
+        problems = study.check(study.design.matrix[index])
+        if problems:
+            refused.append({"run": index, "failed": True, "values": {}, "wall": math.nan,
+                            "series": None,
+                            "error": f"{OUT_OF_RANGE}: {'; '.join(problems)}"})
+    if checkpoint is not None and refused:
+        checkpoint.append(refused)
+    records.update((r["run"], r) for r in refused)
+
+
 def _run_missing(plan: _Plan, records: dict, checkpoint, workers, scheduler, batch_size,
                  progress, on_batch) -> None:
     """Run every run not in `records`, adding them there (and to the checkpoint) batch by
@@ -292,8 +328,8 @@ def _run_missing(plan: _Plan, records: dict, checkpoint, workers, scheduler, bat
         if checkpoint is not None:
             checkpoint.close()
             if isinstance(exc, (KeyboardInterrupt, StudyError)):
-                print(f"depsim: {len(records)} of {design.runs} runs kept in "
-                      f"{checkpoint.path}; run again with resume (--resume) to finish",
+                print(f"depsim: {len(records)} of {design.runs} run{'s' * (design.runs != 1)} "
+                      f"kept in {checkpoint.path}; run again with resume (--resume) to finish",
                       file=sys.stderr)
         raise
     bar.close()
@@ -354,11 +390,13 @@ def sweep(module: ModuleType | str | os.PathLike, *, grid=None, samples=None,
           resume: bool = False, progress: bool | None = None, batch_size: int | None = None,
           quantity: Callable[[str, str], float] | None = None,
           defaults: np.ndarray | None = None, simulate: Callable | None = None,
-          on_batch: Callable[[StudyProgress], None] | None = None):
+          on_batch: Callable[[StudyProgress], None] | None = None,
+          check: Callable[[np.ndarray], list[str]] | None = None):
     """One call: build the design from grid/sample items and run it (see `make_design` and
     `run_study`). `module` is a generated module (with __file__) or its path; `defaults`
     replaces the module's PARAMETER_DEFAULTS as the base vector; `quantity(name, text)`
-    converts values with units. Returns the xarray Dataset (also written to `out`)."""
+    converts values with units; `check(p)` lists the ranges a parameter vector breaks (those
+    runs are recorded as failed, unrun). Returns the xarray Dataset (also written to `out`)."""
     path = Path(module.__file__) if isinstance(module, ModuleType) else Path(module)
     loaded = module if isinstance(module, ModuleType) else load_module(path)
     base = np.array(loaded.PARAMETER_DEFAULTS if defaults is None else defaults, dtype=float)
@@ -367,6 +405,6 @@ def sweep(module: ModuleType | str | os.PathLike, *, grid=None, samples=None,
     design = make_design(tuple(loaded.PARAMETERS), base, grid=grid, samples=samples, runs=runs,
                          seed=seed, quantity=quantity)
     study = Study(path, design, t_end=t_end, dt_out=dt_out, tol=tol, metrics=metrics,
-                  time_grid=time_grid, simulate=simulate)
+                  time_grid=time_grid, simulate=simulate, check=check)
     return run_study(study, workers=workers, scheduler=scheduler, store=out, resume=resume,
                      batch_size=batch_size, progress=progress, on_batch=on_batch)

@@ -1,21 +1,26 @@
-"""Summary of a study: percentiles of every metric, failures, and the parameters that drive
-each metric (Spearman rank correlation over the successful runs)."""
+"""Summary of a study: the probability of not deploying (and of a metric above a limit) with
+its confidence interval, percentiles of every metric that varies, in its unit, the parameters
+that drive it (Spearman rank correlation over the successful runs), and failures."""
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from ..plot import display_values
+from .probability import exceedance, not_deployed
+
 __all__ = ["metric_names", "varied_parameters", "ranks", "spearman", "drivers", "metric_table",
-           "summarize"]
+           "summarize", "metric_unit", "varying"]
 
 NON_METRICS = {"failed", "error", "wall_time", "parameter_values"}
 # Run statistics worth a line in the summary (all of them are in the Dataset).
 SUMMARY_STATS = {"accepted_steps", "rejected_steps", "failed_steps", "position.total",
                  "velocity.total", "acceleration.total", "cg_iterations", "steps", "rejected",
                  "iterations"}
+DEFAULT_TOL = 1e-8  # a study file that does not say its tol
 
 
 def metric_names(ds) -> list[str]:
@@ -83,13 +88,48 @@ def _parameter_ranks(ds, ok: np.ndarray, params: Sequence[str]) -> dict[str, np.
     return out
 
 
+def metric_unit(ds, name: str) -> str:
+    """The SI unit of a metric or parameter ("" when unknown)."""
+    return str(ds[name].attrs.get("units", "") or "")
+
+
+def varying(ds, names: Sequence[str] | None = None) -> dict[str, bool]:
+    """Whether each metric varies over the successful runs by more than the integration can
+    resolve: its spread (max - min) exceeds tol x the largest magnitude of its unit in the
+    study (its own values, the other metrics' and the varied parameters' of that unit; for
+    a pure number or an unknown unit, its own values). A latched hinge's final angle, which
+    differs between runs only by the solver's tolerance, does not vary."""
+    ok = ~np.asarray(ds["failed"].values, dtype=bool)
+    tol = float(ds.attrs.get("tol", DEFAULT_TOL))
+    tol = tol if math.isfinite(tol) and tol > 0 else DEFAULT_TOL
+    names = list(names) if names is not None else metric_names(ds)
+    spreads, scales = {}, {}
+    for name in names + varied_parameters(ds):
+        values = np.asarray(ds[name].values, dtype=float)[ok]
+        values = values[np.isfinite(values)]
+        size = float(np.abs(values).max()) if values.size else 0.0
+        spreads[name] = float(np.ptp(values)) if values.size else 0.0
+        unit = metric_unit(ds, name)
+        key = unit if unit not in ("", "1") else f"own:{name}"
+        scales[key] = max(scales.get(key, 0.0), size)
+    out = {}
+    for name in names:
+        unit = metric_unit(ds, name)
+        scale = scales[unit if unit not in ("", "1") else f"own:{name}"]
+        out[name] = spreads[name] > tol * scale
+    return out
+
+
 def metric_table(ds) -> list[dict]:
-    """One row per metric: p5, p50, p95, mean, n (finite values), drivers."""
+    """One row per metric: its unit, p5, p50, p95, mean (SI), n (finite values), whether it
+    varies (`varying`) and its drivers (none for a metric that does not vary)."""
     ok = ~np.asarray(ds["failed"].values, dtype=bool)
     params = varied_parameters(ds)
     parameter_ranks = _parameter_ranks(ds, ok, params)
+    names = metric_names(ds)
+    varies = varying(ds, names)
     rows = []
-    for name in metric_names(ds):
+    for name in names:
         values = np.asarray(ds[name].values, dtype=float)[ok]
         finite = values[np.isfinite(values)]
         if finite.size:
@@ -97,62 +137,128 @@ def metric_table(ds) -> list[dict]:
             mean = float(finite.mean())
         else:
             p5 = p50 = p95 = mean = math.nan
-        rows.append({"metric": name, "p5": float(p5), "p50": float(p50), "p95": float(p95),
-                     "mean": mean, "n": int(finite.size), "runs": int(ok.sum()),
-                     "drivers": drivers(ds, name, params, parameter_ranks)})
+        rows.append({"metric": name, "unit": metric_unit(ds, name), "p5": float(p5),
+                     "p50": float(p50), "p95": float(p95), "mean": mean,
+                     "n": int(finite.size), "runs": int(ok.sum()), "varies": varies[name],
+                     "drivers": drivers(ds, name, params, parameter_ranks)
+                     if varies[name] else []})
     return rows
 
 
-def _num(x: float) -> str:
+def _num(x: float, digits: int = 4) -> str:
     if math.isnan(x):
         return "-"
     if x == 0 or 1e-3 <= abs(x) < 1e5:
-        return f"{x:.4g}"
-    return f"{x:.3e}"
+        return f"{x:.{digits}g}"
+    return f"{x:.{digits - 1}e}"
 
 
-def summarize(ds, top: int = 3, max_errors: int = 5) -> str:
-    """Plain text: what was run, the percentiles table, drivers, failures, timing."""
+def _digits(values: Sequence[float]) -> int:
+    """Significant digits that tell the values apart (4 to 10): a spread of 1 mm on 8 m
+    needs 6."""
+    finite = [v for v in values if math.isfinite(v)]
+    spread = max(finite) - min(finite) if finite else 0.0
+    size = max((abs(v) for v in finite), default=0.0)
+    if spread <= 0 or size <= 0:
+        return 4
+    return int(min(10, max(4, math.ceil(math.log10(size / spread)) + 2)))
+
+
+def _shown(values, unit: str) -> tuple[list[float], str]:
+    """Values and unit as printed: angles in degrees, the rest in SI."""
+    converted, shown = display_values(np.asarray(values, dtype=float), unit)
+    return converted.tolist(), shown
+
+
+def summarize(ds, top: int = 3, max_errors: int = 5,
+              limits: Mapping[str, float] | None = None) -> str:
+    """Plain text: what was run; the probability of not deploying and of each metric above
+    its limit in `limits` ({metric: SI value}), with their 95 % Clopper-Pearson intervals;
+    a table of the metrics that vary (unit, percentiles, drivers); those that do not;
+    failures; timing."""
     runs = int(ds.sizes["run"])
     failed = np.asarray(ds["failed"].values, dtype=bool)
-    lines = [f"{ds.attrs.get('title', 'depsim parameter study')}: "
-             f"{ds.attrs.get('study_kind', '')}, {runs} runs, {int(failed.sum())} failed"
-             + (f", seed {ds.attrs['seed']}" if "seed" in ds.attrs else "")]
-    spec = ds.attrs.get("spec")
-    if spec:
-        lines.append(f"spec: {spec}")
-    rows = [r for r in metric_table(ds)
-            if not r["metric"].startswith("stats.") or r["metric"][6:] in SUMMARY_STATS]
-    width = max([len(r["metric"]) for r in rows] + [6])
-    lines.append("")
-    lines.append(f"{'metric':<{width}}  {'p5':>10} {'p50':>10} {'p95':>10} {'n':>6}  "
-                 f"drivers (Spearman rho)")
-    for row in rows:
-        name = row["metric"]
-        top_drivers = ", ".join(f"{p} {rho:+.2f}" for p, rho in row["drivers"][:top]) or "-"
-        if name == "deployed":
-            values = np.asarray(ds[name].values, dtype=float)[~failed]
-            yes = int(np.nansum(values))
-            n = int(np.isfinite(values).sum())
-            share = 100.0 * yes / n if n else math.nan
-            lines.append(f"{name:<{width}}  {share:9.1f}% of {n} runs deployed; "
-                         f"P(not deployed) = {100 - share:.1f}%   drivers: {top_drivers}")
-            continue
-        lines.append(f"{name:<{width}}  {_num(row['p5']):>10} {_num(row['p50']):>10} "
-                     f"{_num(row['p95']):>10} {row['n']:>6}  {top_drivers}")
-    if failed.any():
-        errors = np.asarray(ds["error"].values)
-        indices = np.flatnonzero(failed)
-        lines.append("")
-        lines.append(f"failed runs: {failed.sum()} of {runs}")
-        for i in indices[:max_errors]:
-            lines.append(f"  run {int(ds['run'].values[i])}: {errors[i]}")
-        if indices.size > max_errors:
-            lines.append(f"  ... and {indices.size - max_errors} more (see the 'error' variable)")
+    kind = str(ds.attrs.get("study_kind", "")).replace("_", " ")
+    seed = f", seed {ds.attrs['seed']}" if "seed" in ds.attrs else ""
+    lines = [f"{ds.attrs.get('title', 'depsim parameter study')}: {kind}, "
+             f"{runs} run{'s' * (runs != 1)}, {int(failed.sum())} failed{seed}"]
+    if ds.attrs.get("spec"):
+        lines.append(f"spec: {ds.attrs['spec']}")
+    lines += [""] + _probabilities(ds, limits or {})
+    rows = [r for r in metric_table(ds) if r["metric"] != "deployed"  # the line above
+            and (not r["metric"].startswith("stats.") or r["metric"][6:] in SUMMARY_STATS)]
+    lines += _table([r for r in rows if r["varies"]], top)
+    lines += _steady([r for r in rows if not r["varies"]])
+    lines += _failures(ds, failed, max_errors)
     wall = np.asarray(ds["wall_time"].values, dtype=float)
     wall = wall[np.isfinite(wall)]
     if wall.size:
-        lines.append("")
-        lines.append(f"solver wall time per run: median {np.median(wall):.3g} s, "
-                     f"total {wall.sum():.3g} s")
+        lines += ["", f"solver wall time per run: median {np.median(wall):.3g} s, "
+                      f"total {wall.sum():.3g} s"]
     return "\n".join(lines)
+
+
+def _probabilities(ds, limits: Mapping[str, float]) -> list[str]:
+    lines = []
+    missing = not_deployed(ds)
+    if missing is not None:
+        lines.append(f"deployed in {missing.n - missing.k} of {missing.n} completed "
+                     f"run{'s' * (missing.n != 1)}; "
+                     f"P(not deployed) = {missing.text()}")
+    for metric, limit in limits.items():
+        if metric not in ds:
+            raise ValueError(f"no metric '{metric}' in this study")
+        (value,), unit = _shown([limit], metric_unit(ds, metric))
+        lines.append(f"P({metric} > {_num(value)}{' ' + unit if unit else ''}) = "
+                     f"{exceedance(ds, metric, limit).text()}")
+    return lines + [""] if lines else []
+
+
+def _table(rows: list[dict], top: int) -> list[str]:
+    if not rows:
+        return ["no metric varies over the runs"]
+    shown = [(_shown([r["p5"], r["p50"], r["p95"]], r["unit"]), r) for r in rows]
+    width = max(len(r["metric"]) for r in rows)
+    unit_width = max([len(unit) for (_, unit), _ in shown] + [4])
+    lines = [f"{'metric':<{width}}  {'unit':<{unit_width}} {'p5':>10} {'p50':>10} {'p95':>10} "
+             f"{'n':>6}  drivers (Spearman rho)"]
+    for (values, unit), row in shown:
+        top_drivers = ", ".join(f"{p} {rho:+.2f}" for p, rho in row["drivers"][:top]) or "-"
+        lines.append(f"{row['metric']:<{width}}  {unit:<{unit_width}} "
+                     + " ".join(f"{_num(v, _digits(values)):>10}" for v in values)
+                     + f" {row['n']:>6}  {top_drivers}")
+    return lines
+
+
+def _steady(rows: list[dict], listed: int = 12) -> list[str]:
+    """The metrics that do not vary, with their value, on wrapped lines."""
+    if not rows:
+        return []
+    items = []
+    for row in rows[:listed]:
+        (value,), unit = _shown([row["p50"]], row["unit"])
+        unit = f" {unit}" if unit and unit != "1" else ""
+        items.append(f"{row['metric']} = {_num(value)}{unit}")
+    if len(rows) > listed:
+        items.append(f"and {len(rows) - listed} more")
+    count = f"{len(rows)} metric{'s' * (len(rows) != 1)}"
+    lines, line = ["", f"not varying (to the integration tolerance), {count}:"], " "
+    for item in items:
+        if len(line) + len(item) > 96:
+            lines.append(line.rstrip(","))
+            line = " "
+        line += f" {item},"
+    return lines + [line.rstrip(",")]
+
+
+def _failures(ds, failed: np.ndarray, max_errors: int) -> list[str]:
+    if not failed.any():
+        return []
+    errors = np.asarray(ds["error"].values)
+    indices = np.flatnonzero(failed)
+    lines = ["", f"failed runs: {failed.sum()} of {failed.size}"]
+    for i in indices[:max_errors]:
+        lines.append(f"  run {int(ds['run'].values[i])}: {errors[i]}")
+    if indices.size > max_errors:
+        lines.append(f"  ... and {indices.size - max_errors} more (see the 'error' variable)")
+    return lines

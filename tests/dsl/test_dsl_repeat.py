@@ -5,6 +5,7 @@ point into the loop body and name the iteration."""
 from __future__ import annotations
 
 from dataclasses import fields, is_dataclass
+from pathlib import Path
 
 import pytest
 
@@ -12,6 +13,7 @@ from depsim.dsl import ModelError, format_diagnostics, parse_model, summary
 from depsim.dsl.ir import Num, ParamKind, ParamRef, Span
 from depsim.dsl.repeat import MAX_INSTANCES
 
+ROOT = Path(__file__).resolve().parents[2]
 BAR = "length = 0.5 m; mass = 1 kg; inertia = 0.02 kg*m^2"
 
 LOOPED = f"""model chain
@@ -268,3 +270,17 @@ initial {{ for i in 1..N {{ h[i] = 1 deg }} }}
     assert len(model.bodies) == 1001 and len(model.cables) == 999
     assert [h.name for h in model.hinges[-2:]] == ["h[999]", "h[1000]"]
     assert model.outputs[-1].name == "bend[1000]" and len(model.outputs) == 1000
+
+
+def test_a_power_of_minus_one_alternates_for_every_count_a_loop_may_reach():
+    """`(-1)^i` is the number 1 or -1 for any i (a loop counts to at most 10^12), not only
+    for exponents up to 64 (examples/accordion.dep with N = 65 was refused, E041)."""
+    top = 10 ** 12
+    model = check(f"model m\nfor i in {top - 2}..{top} {{ output o[i] = (-1)^i + 0^i + 1^i }}\n"
+                  "for i in 63..66 { output s[i] = (-1)^(i + 1) * (-1)^(-i) }\n")
+    assert [o.expr for o in model.outputs] == [Num(2.0), Num(0.0), Num(2.0)] + [Num(-1.0)] * 4
+    text = (ROOT / "examples" / "accordion.dep").read_text()
+    assert "param N = 12 " in text
+    accordion = check(text.replace("param N = 12 ", "param N = 65 "))
+    signs = {h.name: h.sign for h in accordion.hinges}
+    assert [signs[f"h[{i}]"] for i in range(2, 66)] == [-(-1) ** i for i in range(2, 66)]

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from depsim.dsl import load_model, parse_model, summary
+from depsim.dsl import load_model, parse_model, summary, with_elements
 
 EXAMPLES = Path(__file__).parents[2] / "examples"
 
@@ -40,6 +40,8 @@ def test_beam_model_reports_beam_coordinates_without_dof():
     assert "beam coordinates (set by the beam element)" in text
     assert "degrees of freedom" not in text
     assert "2 elements" in text
+    one = summary(with_elements(load_model(EXAMPLES / "two_link_flex.dep"), {"link1": 1}))
+    assert "5 kg/m, 1 element\n" in one and "1 elements" not in one
 
 
 def test_warnings_are_listed():

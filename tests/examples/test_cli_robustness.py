@@ -144,7 +144,7 @@ def test_a_failing_output_takes_the_others_with_it(tmp_path, monkeypatch, capsys
     import depsim.runtime
     from depsim import cli
 
-    def disk_full(result, module, path):
+    def disk_full(result, module, path, **options):
         raise OSError(28, "No space left on device", str(path))
 
     monkeypatch.setattr(depsim.runtime, "animate", disk_full)
@@ -183,7 +183,7 @@ def test_sweep_writes_the_study_and_its_plot_or_neither(tmp_path, monkeypatch, c
     import depsim.runtime.sweep
     from depsim import cli
 
-    def broken_plot(ds, path):
+    def broken_plot(ds, path, **options):
         raise OSError(28, "No space left on device", str(path))
 
     args = ["sweep", str(PENDULUM), "--grid", "L=1:2:3", *SHORT, "--scheduler", "inline",

@@ -4,6 +4,7 @@ Inputs); bad tables are usage errors (exit 2) naming the file and line, nothing 
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from e2e import ROOT
 
@@ -44,3 +45,47 @@ def test_bad_tables_are_usage_errors(cli, tmp_path: Path):
         assert "Traceback" not in done.stderr
         assert (message or "unknown input 'Q'; the model's inputs: T, F.x, F.y") in done.stderr
         assert not out.exists()
+
+
+def test_a_byte_order_mark_keeps_the_first_row_and_a_typo_is_no_header(cli, tmp_path: Path):
+    """Excel writes a byte-order mark: the first row of a headerless table stays a row (it
+    was taken for a header and dropped); a mistyped first row is an error, not a header."""
+    marked = tmp_path / "marked.csv"
+    marked.write_bytes(b"\xef\xbb\xbf0,1\n2,1\n")
+    out = tmp_path / "o.csv"
+    done = cli("run", MODEL, "--input", f"T={marked}", "-o", out, "--t-end", "1")
+    assert done.returncode == 0, done.stderr
+    t, theta = np.loadtxt(out, delimiter=",", skiprows=1)[:, :2].T
+    assert np.abs(theta - t ** 2 / 2 / I_PIVOT).max() < 1e-8  # torque 1 from t = 0
+    typo = tmp_path / "typo.csv"
+    typo.write_text("0,1O\n2,1\n")
+    done = cli("run", MODEL, "--input", f"T={typo}", "-o", tmp_path / "p.csv")
+    assert done.returncode == 2 and f"{typo}:1: expected two numbers 't,u', got '0,1O'" in \
+        done.stderr
+    assert not (tmp_path / "p.csv").exists()
+
+
+def test_an_input_or_parameter_given_twice_is_refused(cli, tmp_path: Path):
+    table = tmp_path / "t.csv"
+    table.write_text("0,1\n")
+    out = tmp_path / "o.csv"
+    for arguments, message in [
+        (["--input", f"T={table}", "--input", f"T={table}"], "--input T is given twice"),
+        (["--input", f"T={table}", "--set", "T=2"],
+         "input T is given both a table (--input T=...) and a value (--set T=...)"),
+        (["--set", "T.rate=2", "--input", f"T={table}"], "(--set T.rate=...)"),
+        (["--set", "T=1", "--set", "T=2"], "--set T is given twice (1 and 2)"),
+    ]:
+        done = cli("run", MODEL, *arguments, "-o", out, "--t-end", "0.1")
+        assert done.returncode == 2 and message in done.stderr, (arguments, done.stderr)
+        assert "Traceback" not in done.stderr and not out.exists()
+
+
+def test_the_api_refuses_a_table_and_a_value_for_one_input():
+    import depsim
+    from depsim.errors import UsageError
+
+    sim = depsim.load(MODEL).compile("c")
+    with pytest.raises(UsageError, match=r"input 'F.x' is given both a time table .* "
+                                         r"\(set\['F.x.rate'\]\)"):
+        sim.run(set={"F.x.rate": 1.0}, inputs={"F.x": [[0.0, 1.0]]}, t_end=0.1)

@@ -1,5 +1,8 @@
 """`depsim sweep` end to end: a small grid study, and bad specs as usage errors."""
 
+import math
+
+import numpy as np
 import xarray as xr
 
 from e2e import EXAMPLES
@@ -50,4 +53,48 @@ def test_default_study_measures_what_single_runs_do(cli, tmp_path):
             for name, value in expected.items():
                 if name.startswith("stats.") and "wall" in name:
                     continue
-                assert float(study[name].values[run]) == value, name
+                got = float(study[name].values[run])
+                assert got == value or (math.isnan(got) and math.isnan(value)), name
+
+
+def test_values_out_of_the_models_ranges_are_failed_runs_with_their_reason(cli, tmp_path):
+    """A grid reaching a negative friction or length: those runs are failed, with the range
+    they break (the checks `--set` applies), and are not run; the others are."""
+    out = tmp_path / "study.nc"
+    done = cli("sweep", EXAMPLES / "intelsat5.dep", "--grid", "h2.friction=-0.7:0.7:3",
+               "--grid", "panel1.length=-1.965:1.965:2", "--t-end", "2", "--workers", "1",
+               "-o", out)
+    assert done.returncode == 0, done.stderr
+    assert "6 runs, 4 failed" in done.stdout and "failed runs: 4 of 6" in done.stdout
+    friction = "h2.friction must not be negative, got -0.7 N*m"
+    length = "panel1.length must be positive, got -1.965 m"
+    with xr.open_dataset(out, engine="h5netcdf") as study:
+        assert study["failed"].values.tolist() == [True, True, True, False, True, False]
+        errors = [str(e) for e in study["error"].values]
+        assert errors[0] == f"out of the model's ranges: {length}; {friction}"
+        assert errors[1] == f"out of the model's ranges: {friction}"
+        assert errors[2] == errors[4] == f"out of the model's ranges: {length}"
+        assert np.isnan(study["wall_time"].values[[0, 1, 2, 4]]).all()  # never run
+        assert np.isfinite(study["final.theta1"].values[[3, 5]]).all()
+    done = cli("run", EXAMPLES / "intelsat5.dep", "--set", "h2.friction=-0.7", "--t-end", "2")
+    assert done.returncode == 2 and friction in done.stderr  # the same check as --set
+
+
+def test_a_limit_gives_the_probability_of_exceeding_it(cli, tmp_path):
+    out = tmp_path / "study.nc"
+    done = cli("sweep", EXAMPLES / "pendulum.dep", "--grid", "m=1kg:3kg:3", "--t-end", "0.5",
+               "--workers", "1", "--limit", "peak.pivot.force=40 N", "-o", out)
+    assert done.returncode == 0, done.stderr
+    with xr.open_dataset(out, engine="h5netcdf") as study:
+        above = int((study["peak.pivot.force"].values > 40).sum())
+    assert 0 < above < 3  # the heavier bars pull harder on the pivot
+    assert f"P(peak.pivot.force > 40 N) = {100 * above / 3:.1f} % (95 % CI " in done.stdout
+    assert f"Clopper-Pearson; {above} of 3 runs)" in done.stdout
+    for limit, message in [("peak.pivot.force=40 m", "peak.pivot.force is in N; '40 m' has "
+                                                     "another dimension"),
+                           ("peak.nosuch.force=1", "no metric 'peak.nosuch.force'"),
+                           ("peak.pivot.force", "expected METRIC=VALUE")]:
+        done = cli("sweep", EXAMPLES / "pendulum.dep", "--grid", "m=1kg:3kg:3", "--limit",
+                   limit, "-o", tmp_path / "x.nc")
+        assert done.returncode == 2 and message in done.stderr, done.stderr
+        assert not (tmp_path / "x.nc").exists() and "Traceback" not in done.stderr

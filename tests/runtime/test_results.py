@@ -67,6 +67,28 @@ def test_plot_writes_a_png(result, tmp_path):
     assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10_000
 
 
+def test_latch_labels_of_latches_close_in_time_do_not_overlap(result):
+    """Four hinges latching within 0.01 s (their labels were drawn over one another: 'hphb')
+    and one alone: every label clear of the others, the lone one in the first row."""
+    import dataclasses
+    import itertools
+
+    from depsim.runtime.plot import outputs_figure
+    from depsim.runtime.results import EventRecord
+
+    latches = [EventRecord(f"{h}.latch", t) for h, t in
+               (("h1", 0.300), ("hp", 0.302), ("hb", 0.305), ("h12", 0.309), ("h4", 0.6))]
+    figure = outputs_figure(dataclasses.replace(result, events=tuple(latches)))
+    figure.canvas.draw()
+    renderer = figure.canvas.get_renderer()
+    labels = {t.get_text(): t for t in figure.axes[0].texts}
+    assert set(labels) == {"h1", "hp", "hb", "h12", "h4"}
+    boxes = {name: text.get_window_extent(renderer) for name, text in labels.items()}
+    for a, b in itertools.combinations(boxes, 2):
+        assert not boxes[a].overlaps(boxes[b]), (a, b)
+    assert labels["h4"].xyann == labels["h1"].xyann == (2, -10)
+
+
 def test_output_grid_includes_t_end(pendulum):
     assert np.allclose(simulate(pendulum, t_end=1.0, dt_out=0.3).times, [0, 0.3, 0.6, 0.9, 1.0])
     assert np.allclose(simulate(pendulum, t_end=1.0, dt_out=0.25).times,

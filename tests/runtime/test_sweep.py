@@ -125,7 +125,18 @@ def test_inline_matches_single_runs_and_records_everything(module_path, tmp_path
     ds = run_study(study(module_path, d, time_grid=5), scheduler="inline",
                    store=tmp_path / "s.nc")
     assert_same_as_single_runs(ds, module_path, d)
-    assert list(ds.data_vars)[:2] == ["event.h1.latch.t", "deployed"]
+    assert list(ds.data_vars)[:3] == ["deployed", "time_to_deploy", "event.h1.latch.t"]
+    latched = ds["deployed"].values == 1
+    assert latched.any() and np.array_equal(ds["time_to_deploy"].values[latched],
+                                            ds["event.h1.latch.t"].values[latched])
+    assert np.isnan(ds["time_to_deploy"].values[~latched]).all()
+    # every metric and parameter carries its unit (OSCILLATOR's PARAMETER_UNITS, OUTPUT_UNITS)
+    units = {name: ds[name].attrs.get("units") for name in ds.data_vars}
+    assert units["final.x"] == "m" and units["final.v"] == "m/s"
+    assert units["event.h1.latch.t"] == units["time_to_deploy"] == "s"
+    assert units["deployed"] == units["stats.steps"] == "1" and units["peak_speed"] is None
+    assert ds["k"].attrs["units"] == "N/m" and ds["c"].attrs["units"] == "N*s/m"
+    assert ds["parameter_unit"].values.tolist() == ["N/m", "N*s/m", "kg", "m", "m"]
     for name in ("final.x", "final.v", "stats.steps", "stats.rejected", "stats.iterations",
                  "peak_speed", "wall_time", "output.x", "output.v"):
         assert name in ds
@@ -427,7 +438,8 @@ def assert_real_sweep_matches(ds, path, d, t_end):
         for name in module.OUTPUTS:  # the outputs themselves, bit for bit
             assert ds[f"final.{name}"].values[i] == result.output(name)[-1]
         for name, value in expected.items():
-            assert ds[name].values[i] == value, (i, name)
+            got = ds[name].values[i]
+            assert got == value or (math.isnan(got) and math.isnan(value)), (i, name)
 
 
 @pytest.mark.parametrize("where", ["pool", "dask"])
@@ -472,3 +484,76 @@ def test_dask_by_address_and_an_unreachable_scheduler(module_path, dask_client, 
     monkeypatch.setattr(backends, "CONNECT_TIMEOUT", "1s")
     with pytest.raises(StudyError, match="cannot reach the Dask scheduler at tcp://127.0.0.1:9"):
         run_study(study(module_path, d), scheduler="tcp://127.0.0.1:9")
+
+
+def positive_mass(p):
+    return [] if p[2] > 0 else [f"m must be positive, got {p[2]:g} kg"]
+
+
+def test_runs_the_check_refuses_are_failed_unrun_and_stay_so_on_resume(module_path, tmp_path):
+    d = design(module_path, runs=12, extra=["m=normal(0.3, 0.5)"])
+    bad = d.values("m") <= 0
+    assert bad.any() and not bad.all()
+    store = tmp_path / "s.nc"
+    s = Study(module_path, d, t_end=2.0, simulate=counting_simulate, check=positive_mass)
+
+    def interrupt(progress):
+        raise KeyboardInterrupt
+
+    CALLS.clear()
+    with pytest.raises(KeyboardInterrupt):
+        run_study(s, scheduler="inline", store=store, batch_size=2, on_batch=interrupt)
+    CALLS.clear()
+    ds = run_study(s, scheduler="inline", store=store, resume=True, batch_size=2)
+    assert ds["failed"].values.tolist() == bad.tolist()
+    for i in np.flatnonzero(bad):
+        assert ds["error"].values[i] == \
+            f"out of the model's ranges: m must be positive, got {d.values('m')[i]:g} kg"
+        assert np.isnan(ds["final.x"].values[i]) and np.isnan(ds["wall_time"].values[i])
+    assert sorted(CALLS) == sorted(d.values("k")[~bad][2:].tolist())  # the rest ran, once
+
+
+NO_GUARD_SCRIPT = '''
+import json, sys, types
+import numpy as np
+from depsim.runtime.sweep import sweep
+
+with open("ran.txt", "a") as f:   # once per run of this script
+    f.write("ran\\n")
+
+
+def line(module, p, t_end=None, dt_out=None, tol=None, progress=False):
+    t = np.linspace(0.0, 1.0, 5)
+    return types.SimpleNamespace(times=t, outputs={"x": p[0] * t, "v": p[0] + 0 * t},
+                                 events=[], stats={"steps": 4})
+
+
+def twice_k(result):
+    return 2 * float(result.outputs["v"][0])
+
+
+study = sweep(sys.argv[1], samples=["k=uniform(2, 8)"], runs=6, seed=1, workers=2,
+              batch_size=1, simulate=line, metrics={"twice_k": twice_k})
+print(json.dumps({"failed": study["failed"].values.tolist(),
+                  "twice_k": study["twice_k"].values.tolist(),
+                  "k": study["k"].values.tolist()}))
+'''
+
+
+def test_a_script_without_a_main_guard_runs_a_pool_study_once(module_path, tmp_path):
+    """Spawned workers import the main script again, unless told not to: a study started
+    from a script without `if __name__ == "__main__":` must work, its functions defined
+    there reach the workers, and the script runs once, not once per worker."""
+    import json
+    import subprocess
+    import sys
+
+    script = tmp_path / "study.py"
+    script.write_text(NO_GUARD_SCRIPT)
+    done = subprocess.run([sys.executable, str(script), str(module_path)], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    got = json.loads(done.stdout.strip().splitlines()[-1])
+    assert got["failed"] == [False] * 6
+    assert got["twice_k"] == [2 * k for k in got["k"]]
+    assert (tmp_path / "ran.txt").read_text() == "ran\n"
