@@ -27,7 +27,7 @@ from depsim.runtime.core import CFLAGS, CORE_FOLDER, PROGRAM_SOURCE, SOURCE_DIR,
 
 from .c_printer import CPrinter, c_comment, c_double, c_file_stem, c_string
 from .derive import SymbolicSystem, derive
-from .emit import ENVIRONMENT
+from .emit import DEPSIM_VERSION, ENVIRONMENT
 from .lower import FunctionView, ModuleView, lower_module
 
 # One Environment (emit.ENVIRONMENT's settings and loader), with the C literal filters.
@@ -188,9 +188,7 @@ def c_target(model: ir.Model, system: SymbolicSystem | None = None
              ) -> tuple[ModuleView, dict[str, str]]:
     """The lowered module (its sizes, tables and identity, for targets that wrap the C model:
     codegen.fmu) and the generated files of `c_sources`, from one lowering."""
-    from depsim import __version__  # the facade package imports codegen lazily
-
-    view = lower_module(model, system or derive(model), CPrinter, __version__)
+    view = lower_module(model, system or derive(model), CPrinter, DEPSIM_VERSION)
     c = c_view(view, tuple(core_folder_files()))
     files = {name: C_ENVIRONMENT.get_template(f"c/{name}.j2").render(c=c, m=view,
                                                                      cflags=" ".join(CFLAGS))

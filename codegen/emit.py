@@ -5,6 +5,7 @@ Output is byte-for-byte reproducible: no timestamps, no absolute paths, fixed or
 from __future__ import annotations
 
 import hashlib
+import importlib.metadata
 import re
 from pathlib import Path
 from types import ModuleType
@@ -17,6 +18,9 @@ from depsim.runtime.binding import load_module
 from .derive import SymbolicSystem, derive
 from .lower import ModuleView, lower_module
 from .printing import IeeePrinter, PythonPrinter
+
+# The version every generated file names (pyproject.toml's, as installed).
+DEPSIM_VERSION = importlib.metadata.version("depsim")
 
 ENVIRONMENT = jinja2.Environment(
     loader=jinja2.PackageLoader("depsim.codegen", "templates"),
@@ -45,9 +49,7 @@ def render_numpy(view: ModuleView) -> str:
 
 def numpy_source(model: ir.Model, system: SymbolicSystem | None = None) -> str:
     """A model's NumPy module source (derived here unless `system` is given); no file written."""
-    from depsim import __version__  # the facade package imports codegen lazily
-
-    view = lower_module(model, system or derive(model), PythonPrinter, __version__,
+    view = lower_module(model, system or derive(model), PythonPrinter, DEPSIM_VERSION,
                         ieee_printer=IeeePrinter)
     return render_numpy(view)
 

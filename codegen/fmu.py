@@ -4,12 +4,16 @@
 
     modelDescription.xml               generated (templates/fmu/modelDescription.xml.j2)
     binaries/linux64/<identifier>.so   built here with the system C compiler
-    sources/                           model*.c, model.h (the C target's), the FMI wrapper
-                                       fmi2.c, fmi2.h and the integrator core (runtime/c)
+    sources/                           model*.c, model.h (the C target's), fmu_variables.c
+                                       (generated: the GUID and the variables' tables), the
+                                       FMI wrapper fmi2.c, fmi2.h, fmu.h
+                                       (runtime/c/targets/fmu) and the integrator core
+                                       under core/ (runtime/c)
 
 The variables of the FMU are one list (`fmu_view`) from which both the XML and the wrapper's
-value-reference tables are rendered. The wrapper keeps one `dep_run` of the core open per
-instance and advances it in `fmi2DoStep`. No Python is inside the FMU."""
+value-reference tables (fmu_variables.c) are rendered; the wrapper itself is one source for
+every model. It keeps one `dep_run` of the core open per instance and advances it in
+`fmi2DoStep`. No Python is inside the FMU."""
 
 from __future__ import annotations
 
@@ -23,6 +27,8 @@ from pathlib import Path
 
 from depsim.dsl import ir
 
+from depsim.runtime.core import FMU_SOURCES, SOURCE_DIR
+
 from .c_emit import C_ENVIRONMENT, PROGRAM, c_target, core_folder_files
 from .c_printer import c_file_stem
 from .derive import SymbolicSystem
@@ -33,7 +39,7 @@ PLATFORM = "linux64"
 CFLAGS = ("-std=c99", "-O2", "-fPIC", "-shared", "-Wall", "-Wextra", "-Werror",
           "-fvisibility=hidden")
 SANITIZE_FLAGS = ("-fsanitize=address,undefined", "-fno-omit-frame-pointer")
-WRAPPER_FILES = ("fmi2.c", "fmi2.h")
+VARIABLES_FILE = "fmu_variables.c"  # generated (templates/fmu/fmu_variables.c.j2)
 INDEPENDENT = "time"
 
 # Per hinge, the Real observables (suffix, C kind, unit, description) and, for a hinge with a
@@ -95,7 +101,7 @@ class FmuVariable:
     unit: str  # "" for none (dimensionless)
     start: str | None
     description: str
-    kind: str  # enum fmu_kind of templates/fmu/fmi2.c.j2
+    kind: str  # enum fmu_kind of runtime/c/targets/fmu/fmu.h
     index: int
 
 
@@ -246,10 +252,8 @@ def fmu_view(model: ir.Model, m: ModuleView, source_files: tuple[str, ...] = ())
                                                     "engaged")
     _check_unique(model, v.items)
     variables = tuple(_with_unit(var) for var in v.items)
-    from depsim import __version__
-
     return FmuView(
-        guid=fmu_guid(model, __version__), identifier=model_identifier(model),
+        guid=fmu_guid(model, m.depsim_version), identifier=model_identifier(model),
         variables=variables,
         reals=tuple(var for var in variables if var.type == "Real"),
         booleans=tuple(var for var in variables if var.type == "Boolean"),
@@ -293,11 +297,13 @@ def fmu_sources(model: ir.Model, system: SymbolicSystem | None = None
             for name, path in core_folder_files().items() if name != PROGRAM}
     sources = {name: text for name, text in generated.items() if name.startswith("model")}
     sources.update(core)
-    c_files = tuple(sorted([name for name in sources if name.endswith(".c")] + ["fmi2.c"]))
+    sources.update({Path(name).name: (SOURCE_DIR / name).read_text(encoding="utf-8")
+                    for name in FMU_SOURCES})
+    c_files = tuple(sorted([name for name in sources if name.endswith(".c")]
+                           + [VARIABLES_FILE]))
     view = fmu_view(model, m, c_files)
-    for name in WRAPPER_FILES:
-        sources[name] = FMU_ENVIRONMENT.get_template(f"fmu/{name}.j2").render(
-            m=m, v=view, depsim_version=m.depsim_version)
+    sources[VARIABLES_FILE] = FMU_ENVIRONMENT.get_template(f"fmu/{VARIABLES_FILE}.j2").render(
+        m=m, v=view)
     xml = FMU_ENVIRONMENT.get_template("fmu/modelDescription.xml.j2").render(m=m, v=view)
     return view, {"modelDescription.xml": xml,
                   **{name: sources[name] for name in sorted(sources)}}

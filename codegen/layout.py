@@ -3,8 +3,6 @@ coordinates in beam order; and the ordered symbols q, q', p, t."""
 
 from __future__ import annotations
 
-import importlib
-from types import ModuleType
 from typing import Any
 
 import sympy
@@ -18,16 +16,6 @@ from .kinematics import Coordinates
 RIGID_COORDINATES = ("x", "y", "phi")
 
 
-def load_beam_module() -> ModuleType | None:
-    """codegen/beam.py (the flexible beam element) if it is present, else None."""
-    try:
-        return importlib.import_module("depsim.codegen.beam")
-    except ModuleNotFoundError as error:
-        if error.name != "depsim.codegen.beam":
-            raise
-        return None
-
-
 def _symbol(name: str) -> sympy.Symbol:
     # No assumptions (real=True would make every derivative query them: about 2.5x slower on
     # two_link_flex). Nothing derive differentiates contains abs/sign of a coordinate.
@@ -35,18 +23,17 @@ def _symbol(name: str) -> sympy.Symbol:
 
 
 def build_coordinates(model: ir.Model) -> tuple[Coordinates, tuple[Any, ...]]:
-    """The model's ordered symbols and one beam element (BeamSymbolic) per beam."""
+    """The model's ordered symbols and one beam element (BeamSymbolic) per beam
+    (codegen/beam.py)."""
+    from . import beam as module  # (the tests put a stand-in element in its place)
+
     p = tuple(_symbol(param.name) for param in model.params)
     t = _symbol("t")
     names = [f"{body.name}.{c}" for body in model.bodies for c in RIGID_COORDINATES]
     q = [_symbol(name) for name in names]
     beam_q, elements = [], []
-    module = load_beam_module() if model.beams else None
     scope = ConstantScope(p, t)
     for beam in model.beams:
-        if module is None:
-            raise CodegenError("E901", f"beam '{beam.name}': flexible beams are not available "
-                               "in this build (codegen/beam.py is missing)", beam.span)
         symbols = tuple(_symbol(f"{beam.name}.q{k}") for k in range(module.coordinate_count(beam)))
         element = module.beam_element(beam, list(symbols), lambda e: to_sympy(e, scope))
         assert len(element.coordinate_names) == len(symbols), "beam coordinate count mismatch"

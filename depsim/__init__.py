@@ -5,7 +5,9 @@
     result = sim.run(set={"h2.friction": 0.7})
 """
 
-__version__ = "0.1.0"
+from importlib.metadata import version as _version
+
+__version__ = _version("depsim")  # pyproject.toml's, as installed
 
 __all__ = ["Model", "Simulator", "load", "sweep", "__version__"]
 

@@ -36,7 +36,8 @@ LIBRARY_SOURCE = "targets/library.c"  # the public interface's entry points (dep
 # The targets built beside a generated model (a C target folder, an FMU) and placed next to
 # its model.h there: they include "model.h" and "core/include/depsim.h".
 PROGRAM_SOURCE = "targets/program/main.c"
-FMU_SOURCES = ("targets/fmu/fmi2.c", "targets/fmu/fmi2.h")
+FMU_SOURCES = ("targets/fmu/fmi2.c", "targets/fmu/fmi2_variables.c", "targets/fmu/fmi2.h",
+               "targets/fmu/fmu.h")
 CORE_FOLDER = "core"  # where a C target folder or an FMU's sources/ hold the files of core_files()
 # -fno-math-errno: sqrt is the instruction, not a libm call that may set errno (nothing reads
 # it); 4 % faster on INTELSAT V and two_link_flex, outputs bit for bit the same.

@@ -9,22 +9,12 @@ import pytest
 import sympy
 
 import handmade
-from depsim.codegen import CodegenError, derive, layout
+from depsim.codegen import CodegenError, derive
 from depsim.codegen.lower import FunctionSpec, lower_function
 from depsim.codegen.printing import LoweringError, PythonPrinter
 from depsim.dsl import ir
 
 SPAN = ir.Span("bad.dep", 7, 3, 7, 9)
-
-
-def test_beams_without_the_beam_element(monkeypatch):
-    monkeypatch.setattr(layout, "load_beam_module", lambda: None)
-    model = handmade.beam_chain()
-    model = replace(model, beams=(replace(model.beams[0], span=SPAN),))
-    with pytest.raises(CodegenError) as error:
-        derive(model)
-    assert error.value.code == "E901" and error.value.span == SPAN
-    assert str(error.value).startswith("bad.dep:7:3: error[E901]: beam 'link'")
 
 
 def test_parameter_named_like_time():

@@ -100,7 +100,8 @@ def test_archive_content(fmu_path):
     identifier = description.coSimulation.modelIdentifier
     assert identifier == "intelsat5"
     assert {"modelDescription.xml", f"binaries/linux64/{identifier}.so",
-            "sources/fmi2.c", "sources/fmi2.h", "sources/model.c", "sources/model.h",
+            "sources/fmi2.c", "sources/fmi2.h", "sources/fmu.h", "sources/fmu_variables.c",
+            "sources/model.c", "sources/model.h",
             "sources/core/include/depsim.h", "sources/core/run/run.c"} <= names
     assert "sources/main.c" not in names
     (build,) = description.buildConfigurations  # fmpy reads FMI 2.0's SourceFiles so
@@ -132,6 +133,18 @@ def test_reproducible_and_guid():
     first, files = fmu_sources(model)
     again, files_again = fmu_sources(model)
     assert files == files_again
-    assert first.guid in files["modelDescription.xml"] and first.guid in files["fmi2.c"]
+    assert first.guid in files["modelDescription.xml"]
+    assert first.guid in files["fmu_variables.c"]
     other, _ = fmu_sources(load_model(model_path("motor")))
     assert other.guid != first.guid
+
+
+def test_the_wrapper_is_one_source_for_every_model():
+    """Only the variables' tables and modelDescription.xml are rendered per model: the FMI
+    wrapper is runtime/c/targets/fmu's source, the same text in every FMU."""
+    from depsim.runtime.core import FMU_SOURCES, SOURCE_DIR
+
+    for name in ("pendulum", "intelsat5"):
+        _, files = fmu_sources(load_model(model_path(name)))
+        for source in FMU_SOURCES:
+            assert files[source.rsplit("/", 1)[-1]] == (SOURCE_DIR / source).read_text()

@@ -3,7 +3,7 @@
  * its "default" platform types. An FMU shipped as a shared object exports the functions
  * under their plain names (no FMI2_FUNCTION_PREFIX); only these names are visible.
  *
- * Written by depsim {{ depsim_version | c_comment }}; see docs/fmu.md.
+ * See docs/fmu.md.
  */
 #ifndef DEPSIM_FMI2_H
 #define DEPSIM_FMI2_H
