@@ -13,13 +13,13 @@ compile(target="numpy" or, with --target c, "c") -> the iterative integrator.
    simulated second is expensive, and more so with more elements.
 2. Energy: kinetic + gravity + elastic (the generated `energy`) is constant for this undamped
    model; the drift max |E(t) - E(0)| is printed in J and relative to the largest kinetic energy
-   of the run. `--energy-span 5` also integrates the 2-element model over the seed's full 5 s.
+   of the run. `--energy-span 5` also integrates the 2-element model over the paper's full 5 s.
 3. Convergence: chord2 and tip2 on the common output grid for each element count; the table
    gives their values at the end of the span and the largest difference over the span to the
    next coarser mesh (they should shrink as the mesh is refined), raw and after a moving
    average over one period of link 2's first bending mode. The raw differences are those of
    the high-frequency bending waves the release excites, whose phase drifts with the mesh; the
-   smoothed ones are those of the swing and the quasi-static bending (the seed's Figures 4, 5).
+   smoothed ones are those of the swing and the quasi-static bending (the paper's Figures 4, 5).
 4. `--cantilever N`: a clamped beam (EI = 100 N m^2, 1 kg/m, L = 1 m) with N elements
    released in gravity, integrated over 2.5 periods; its first bending frequency, fitted to
    the tip deflection, against beam theory (tests/codegen/test_beam_system.py does this with
@@ -46,7 +46,7 @@ OUTPUTS = ("chord2", "tip2")
 # one period of link 2's first bending mode in M2 (about 283 rad/s): the window of the
 # smoothed differences, which leave out the bending waves the release excites
 SMOOTHING = 2 * np.pi / 283.0  # s
-LOW_PASS = 60.0  # Hz: the issue's low-pass of tip2 (link 2's first mode is 45 Hz)
+LOW_PASS = 60.0  # Hz: the accuracy bar's low-pass of tip2 (link 2's first mode is 45 Hz)
 CANTILEVER_ROOTS = (1.8751040687119611, 4.6940911329741746)  # cos b cosh b = -1
 CANTILEVER = """\
 model cantilever

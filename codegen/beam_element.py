@@ -9,7 +9,7 @@ with the cubic Hermite functions N1..N4; every integral the beam needs reduces t
 dimensionless matrices of `hermite_integrals` (see docs/beams.md for the derivation).
 
 The elastic energy is measured in the element's own chord frame (origin at node i, x along
-r_j - r_i): a frame fixed by two points of the body, as the seed prescribes, one per element.
+r_j - r_i): a frame fixed by two points of the body, as the paper prescribes, one per element.
 `element_strains` gives the five deformation measures w of that frame, and the energy is
 exactly V = 1/2 w^T K w with the constant `element_stiffness` K. `Element` hands out the
 energy, its gradient and the damping of one element, derived once and reused by substitution.

@@ -17,7 +17,7 @@ parameters may pass `quantity(name, text) -> float` to accept text such as "1.5 
 gets the same `runs` samples (common random numbers): n_grid * runs runs in all, grid-major.
 
 Each sampled parameter draws from its own stream, PCG64(SeedSequence(seed, spawn_key=(crc32 of
-its name,))), so its numbers depend only on the seed, its name and its distribution: adding or
+its name,))), so its numbers depend only on `seed`, its name and its distribution: adding or
 reordering items leaves the other columns alone, and the first N draws of a study of 2N runs
 are the draws of the study of N runs.
 """

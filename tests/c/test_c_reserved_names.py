@@ -1,4 +1,4 @@
-"""No model name can collide with a make target or a file of its C folder (issue 15, part 5):
+"""No model name can collide with a make target or a file of its C folder:
 a model named `clean` used to get a program rule that `clean:` replaced, so `make` built no
 program."""
 

@@ -1,4 +1,4 @@
-"""Model text that checks but used to break code generation (issue 15, part 5): an output with
+"""Model text that checks but used to break code generation: an output with
 no finite value once its terms cancel, names too long for a file, and the deepest expression
 the checker lets through."""
 

@@ -1,5 +1,5 @@
 """Easy mistakes and hostile input: each gets a diagnostic with its position (or a clear
-error naming the limit), never a traceback, a hang or unbounded memory (issue 15, parts 3-5).
+error naming the limit), never a traceback, a hang or unbounded memory.
 
 Bad-model fixtures for the same findings are in tests/dsl/errors/ (name_too_long,
 latch_plain_degrees, keyword_glued_*, fullwidth_digit, tol_not_below_one,

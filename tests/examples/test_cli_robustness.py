@@ -1,4 +1,4 @@
-"""The command line under bad arguments and awkward outputs (issue 15, part 6): every bad
+"""The command line under bad arguments and awkward outputs: every bad
 argument a clear `depsim: error: ...` and exit code 2 (usage; 1 stays for model errors), no
 traceback, nothing written half, no file clobbered; output paths keep what they are (links,
 pipes, descriptors); a killed sweep takes its workers with it."""

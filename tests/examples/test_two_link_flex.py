@@ -1,4 +1,4 @@
-"""examples/two_link_flex.dep (docs/examples.md, two flexible links, the seed's section 3 example) through the real
+"""examples/two_link_flex.dep (docs/examples.md, two flexible links, the paper's section 3 example) through the real
 pipeline: load -> with_elements -> compile(target="numpy") -> the iterative integrator, and
 the `--elements` option of the command line.
 
@@ -85,7 +85,7 @@ def test_example_is_models_md_m2():
         assert value(beam.EI) == pytest.approx(2e11 * 5e-9, rel=1e-15)  # 1000 N m^2
         assert value(beam.EA) == pytest.approx(2e11 * 2.449e-4, rel=1e-15)
         assert value(beam.mass_per_length) == 5.0  # 5 kg over 1 m
-        assert beam.elements == 2 and beam.damping is None  # the seed: two elements per link
+        assert beam.elements == 2 and beam.damping is None  # the paper: two elements per link
     ground, link1, link2 = (ir.Member(ir.MemberKind.GROUND, 0),
                             ir.Member(ir.MemberKind.BEAM, 0), ir.Member(ir.MemberKind.BEAM, 1))
     h1, h2 = model.hinges

@@ -117,7 +117,7 @@ static int latch_g(void *context, double t, const double *q, const double *qd,
     return 0;
 }
 
-/* free: stop_max - theta or theta - stop_min; at this stop: the pushing multiplier
+/* free: stop_max - theta or theta - stop_min; at that stop: the pushing multiplier
    (+lambda at stop_max, -lambda at stop_min); latched or stuck: 1. */
 static int stop_g(void *context, double t, const double *q, const double *qd,
                   const dep_active_rows *rows, double *g)
