@@ -26,7 +26,7 @@ MAX_OUTPUT_ROWS = 10_000_000
 
 def output_rows(t_end: float, dt_out: float) -> int:
     """How many output times a run records: 0, dt_out, 2 dt_out, ... up to t_end, and t_end
-    itself (counted as the integrator core does, runtime/c/recording.c). t_end, dt_out > 0, s."""
+    itself (counted as the integrator core does, runtime/c/run/recording.c). t_end, dt_out > 0, s."""
     count = math.floor(t_end / dt_out * (1 + 1e-12))
     return count + 1 + (t_end - count * dt_out > 1e-9 * dt_out)
 

@@ -89,7 +89,8 @@ void dep_settle_put_text(settle_context *x, dep_event_record *r, const char *key
     dep_datum_text(r->data, &r->n_data, x->data_capacity, key, text);
 }
 
-void dep_settle_put_kind(settle_context *x, dep_event_record *r, const char *key, int kind, double v)
+void dep_settle_put_kind(settle_context *x, dep_event_record *r, const char *key, int kind,
+                         double v)
 {
     dep_datum *d = dep_datum_add(r->data, &r->n_data, x->data_capacity, key, "");
     if (d != NULL) {

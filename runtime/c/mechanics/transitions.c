@@ -1,6 +1,6 @@
 /* transitions.c: the mode changes of latches, stops and stick-slip hinges, the plastic impact
  * of the rows that engage and the final projection (docs/deployment.md, sections 1-4);
- * settle.c drives them.
+ * mechanism.c drives them.
  *
  * A rigid latch or a stop that engages causes a plastic impact: sticking hinges let go during
  * it (a finite friction torque transmits no impulse) and afterwards slip in the direction of

@@ -30,7 +30,8 @@ int dep_watch_init(dep_watch *watch, const dep_event *events, int count,
     for (int k = 0; k < total; ++k) {
         const dep_event *e = &watch->events[k];
         if (e->function == NULL || e->name == NULL) {
-            return dep_plain_error(error, DEP_SETTINGS_ERROR, "an event needs a name and a function");
+            return dep_plain_error(error, DEP_SETTINGS_ERROR,
+                                   "an event needs a name and a function");
         }
         if (e->direction < -1 || e->direction > 1) {
             char message[DEP_NAME_MAX + 60];

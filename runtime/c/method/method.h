@@ -57,7 +57,8 @@ typedef struct dep_constraints {
 } dep_constraints;
 
 /* Doubles that hold a Jacobian of any active set: Phi_q's non-zeros and every added row's. */
-#define DEP_JACOBIAN_SIZE(model) ((size_t)(model)->nnz + (size_t)DEP_MAX_ADDED * (size_t)(model)->nq)
+#define DEP_JACOBIAN_SIZE(model) \
+    ((size_t)(model)->nnz + (size_t)DEP_MAX_ADDED * (size_t)(model)->nq)
 
 int dep_constraints_init(dep_constraints *cs, const dep_system *system, dep_arena *arena);
 void dep_cs_phi(dep_constraints *cs, const double *q, double t, double *out);
@@ -231,7 +232,7 @@ typedef void (*dep_measure_function)(void *context, const double *lam, dep_measu
 
 typedef void (*dep_mobility_function)(void *context, const double *x, double *out);
 
-/* A small dense factor of S set aside while the passes see another mobility (multipliers.c). */
+/* A small dense factor of S set aside while the passes see another mobility (schur.c). */
 typedef struct dep_schur_kept {
     long long id, mobility, pattern; /* (id -1: none) */
     int nc;
@@ -333,7 +334,7 @@ typedef struct dep_history {
    linear in time between its values at the step's start and end, the start's share:
    `position_start` and `velocity_start`, the same integrals weighted by 1 - u. `lagged`:
    integral_0^1 (1 - u)^2 / 2 l(u) du, what a force growing over the step like the velocity's
-   response, integral_0^u l, moves q_{i+1} by per h^2 (times velocity; stepper.c). */
+   response, integral_0^u l, moves q_{i+1} by per h^2 (times velocity; step.c). */
 typedef struct dep_profile {
     double t0, h;
     int nodes;
@@ -362,7 +363,7 @@ void dep_weights(const double *y0, const double *y1, int n, double tol, double *
 double dep_rms(const double *x, const double *scale, int n);
 int dep_divided_difference(const dep_profile *profile, const dep_history *history,
                            const double *end, double *d, double *scratch);
-/* A step's errors in tolerance units (1: at tolerance), controller.c. */
+/* A step's errors in tolerance units (1: at tolerance), control.c. */
 typedef struct dep_step_errors {
     double ode;       /* the ODE method's (DOPRI 5(4) or ROS34PW2), tangential part */
     int ode_order;    /* its power of h */
@@ -447,7 +448,7 @@ typedef struct dep_outcome {
     dep_pass_report reports[3];
     int integrations;
     dep_profile profile;     /* the step's lambda(t) (its history part; the end is the state's) */
-    /* With friction prescribed over the step (stepper.c): its profile, and the friction law
+    /* With friction prescribed over the step (friction.c): its profile, and the friction law
        at the new state (nh), the end value the profile was iterated to. */
     int prescribed;
     dep_profile friction_profile;
@@ -491,7 +492,7 @@ typedef struct dep_stepper {
     int implicit;
     dep_implicit im;
     long long mobility_ids;
-    double *filter_block, *filter_S, *filter_rhs; /* history_multipliers' block (stepper.c) */
+    double *filter_block, *filter_S, *filter_rhs; /* history_multipliers' block (responses.c) */
     /* G J^T and J G J^T kept for the W (filter_id) and J they were made at */
     double *filter_GJ, *filter_JGJ, *filter_J;
     long long filter_id, filter_pattern;
@@ -535,7 +536,7 @@ int dep_stepper_tangential(dep_stepper *stepper, const double *J, long long J_id
 /* The works of the frictions prescribed over the last step (work: nfriction, after the
    model's own dissipators) moved with the end positions q moved by dq: -tau d(theta), tau the
    friction's end value. What a position correction does to them; it is the part of their
-   error that a correction carries away (integrator.c, tangential_error). */
+   error that a correction carries away (run/steps.c, tangential_error). */
 void dep_stepper_work_move(dep_stepper *stepper, const double *q, const double *dq,
                            double *work);
 void dep_stepper_set_rhs(dep_stepper *stepper, const dep_profile *profile,

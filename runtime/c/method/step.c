@@ -304,7 +304,8 @@ static void finish_step(dep_stepper *stepper, const dep_state *state, dep_outcom
     dep_rk_step *rk = &stepper->final_position->rk;
     memcpy(new->work, rk->y1 + 2 * nq, (size_t)nd * sizeof(double));
     if (rk->method == DEP_ROSENBROCK) { /* the work rates at the end, for the dense output */
-        dep_system_dissipation(stepper->system, new->q, new->qd, new->t, rk->K + 6 * (size_t)rk->n + 2 * nq);
+        dep_system_dissipation(stepper->system, new->q, new->qd, new->t,
+                               rk->K + 6 * (size_t)rk->n + 2 * nq);
     }
     dep_interpolant_data(new->t - state->t, state->q, state->qd, state->qdd, new->q, new->qd,
                          new->qdd, nq, outcome->data);
@@ -397,7 +398,8 @@ static int take_step(dep_stepper *stepper, const dep_state *state, const dep_pro
         }
         memcpy(new->qd, final->x, (size_t)nq * sizeof(double));
         if (!stepper->prescribed
-            || dep_stepper_friction_settled(stepper, new->q, new->qd, round, stepper->final_position)) {
+            || dep_stepper_friction_settled(stepper, new->q, new->qd, round,
+                                            stepper->final_position)) {
             break;
         }
         if (round + 1 == DEP_FRICTION_ROUNDS) {
@@ -415,7 +417,8 @@ static int take_step(dep_stepper *stepper, const dep_state *state, const dep_pro
         stepper->end_t = stepper->t1;
     }
     if (status == DEP_OK && stepper->implicit && stepper->system->model->nkz > 0) {
-        status = dep_stepper_history_multipliers(stepper, new, failure); /* (nkz = 0: W = M, G = M^-1) */
+        /* (nkz = 0: W = M, G = M^-1) */
+        status = dep_stepper_history_multipliers(stepper, new, failure);
     }
     if (status != DEP_OK) {
         return status;

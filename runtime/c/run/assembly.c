@@ -119,8 +119,8 @@ static void cholesky_solve(double *N, int n, double *s)
 /* Solve (A^T A + D) s = A^T b for s (nf), D = damping diag(A^T A) + floor I: the regularised
    normal equations give the least-squares solution of minimum norm as the damping and floor
    vanish. Only A's non-zero rows enter: a tree joint turns the members beyond it rigidly, so
-   its column is zero (to round-off) in every row but the loops' closing ones. With fewer such rows than
-   unknowns (a long chain closing one loop), the same s comes from the rows' side,
+   its column is zero (to round-off) in every row but the loops' closing ones. With fewer such
+   rows than unknowns (a long chain closing one loop), the same s comes from the rows' side,
    s = D^-1 A^T (A D^-1 A^T + I)^-1 b: a system of their size instead of nf. */
 static void normal_solve(assembly *x, const double *b, double damping, double *s)
 {

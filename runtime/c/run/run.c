@@ -76,8 +76,9 @@ static int setup(dep_run *run, const double *params, const dep_event *events, in
     if (run->stepper.implicit) {
         run->profile_nodes = DEP_IMPLICIT_PROFILE_NODES;
     }
-    status = run->recording ? dep_recorder_init(&run->recorder, &run->system, mechanism, &run->settings,
-                                                run->cs.capacity, arena) : DEP_OK;
+    status = run->recording ? dep_recorder_init(&run->recorder, &run->system, mechanism,
+                                                &run->settings, run->cs.capacity, arena)
+                            : DEP_OK;
     if (status == DEP_SETTINGS_ERROR) {
         char what[200];
         snprintf(what, sizeof what, "t_end / dt_out = %.6g / %.6g asks for %.4g output times; "

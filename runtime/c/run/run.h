@@ -98,10 +98,11 @@ dep_stats dep_tally_stats(const dep_tally *tally, long long integrations,
    carry the reactions of the stiff modes that step damps; a cubic's error estimate, a fourth
    divided difference, amplifies them and holds the step (two_link_flex at 16 elements: 198,500
    steps with a cubic, 116,200 with a quadratic at the same tol, every output within the
-   issue's accuracy; a linear profile takes 21,300 but misses the low-passed tip by 3e-5 m). */
+   accuracy bar of docs/beams.md; a linear profile takes 21,300 but misses the low-passed tip
+   by 3e-5 m). */
 #define DEP_IMPLICIT_PROFILE_NODES 2
 
-/* The accepted point before run->state (for the velocity interpolant, dopri.c); valid is 0
+/* The accepted point before run->state (for the velocity interpolant, method/dopri.c); valid is 0
    after a start or an event. */
 typedef struct dep_prior {
     int valid;

@@ -25,19 +25,19 @@
 #define STIFF_OMEGA_H 0.5 /* h omega_max above this: DOPRI's step is bound by stability */
 /* The linearly implicit step keeps its size while the controller would change it by a factor
    within [HOLD_LOW, HOLD_HIGH], so that K, D, W's factorisation, the unit responses and the
-   filter's J G J^T serve many steps (rosenbrock.c, stepper.c): a new W costs about as much as
-   a step. Held 3 % longer than the controller wants, a step of order q misses its aim by about
-   1.03^(q + 1), a tenth. A change the controller wants within [SMALL_LOW, SMALL_HIGH] is taken
-   at half its gain (its square root) before that test: where a resolved mode's error rises and
-   falls with its phase (two_link_flex: the links' first axial mode, about 10 steps to its
-   period), the step followed it, and W was new in a step of three; large changes (a start, an
-   event, a new phase of the motion) are followed at once. two_link_flex at 16 elements, tol
-   1e-8: 2.12 s without the half gain, 1.85 s with it (medians of 11), 27,000 and 31,600 steps,
-   chord2's error against the 64-element reference 5.7e-6 and 4.3e-6 rad (3.0e-5 against
-   2.2e-5 at tol 1e-7). Without the half gain, the window from 1 (Hairer & Wanner's RADAU5)
-   took 2.51 s, from 0.95 2.16 s, but at tol 1e-7 the step's errors then alternate from step to
-   step and chord2's error grows: 1.8e-5 rad from 1, 2.7e-5 from 0.95, 6.4e-5 from 0.9. A wider
-   upper bound holds a step that wants to grow by a little each step (the half gain on all
+   filter's J G J^T serve many steps (method/rosenbrock.c, method/responses.c): a new W costs
+   about as much as a step. Held 3 % longer than the controller wants, a step of order q misses
+   its aim by about 1.03^(q + 1), a tenth. A change the controller wants within [SMALL_LOW,
+   SMALL_HIGH] is taken at half its gain (its square root) before that test: where a resolved
+   mode's error rises and falls with its phase (two_link_flex: the links' first axial mode, about
+   10 steps to its period), the step followed it, and W was new in a step of three; large changes
+   (a start, an event, a new phase of the motion) are followed at once. two_link_flex at 16
+   elements, tol 1e-8: 2.12 s without the half gain, 1.85 s with it (medians of 11), 27,000 and
+   31,600 steps, chord2's error against the 64-element reference 5.7e-6 and 4.3e-6 rad (3.0e-5
+   against 2.2e-5 at tol 1e-7). Without the half gain, the window from 1 (Hairer & Wanner's
+   RADAU5) took 2.51 s, from 0.95 2.16 s, but at tol 1e-7 the step's errors then alternate from
+   step to step and chord2's error grows: 1.8e-5 rad from 1, 2.7e-5 from 0.95, 6.4e-5 from 0.9. A
+   wider upper bound holds a step that wants to grow by a little each step (the half gain on all
    changes, or a window to 1.5: about 580 steps instead of 248 at tol 1e-6 over 0.2 s at 8
    elements). */
 #define HOLD_LOW 0.97
@@ -207,7 +207,7 @@ static void interpolation_errors(dep_run *run, const dep_outcome *outcome,
     e->friction_order = friction->nodes + 2;
 }
 
-/* The step's errors in tolerance units (1 = at tolerance; controller.c). */
+/* The step's errors in tolerance units (1 = at tolerance; method/control.c). */
 static void step_errors(dep_run *run, const dep_outcome *outcome, dep_step_errors *e)
 {
     const dep_rk_step *rk = outcome->rk;
@@ -252,11 +252,12 @@ static const char *moving_most(const dep_run *run, const double *qd)
 
 /* After an accepted step of size h: a model with beams whose step a stiff mode holds at
    DOPRI's stability bound (Hairer's test, STIFF_STEPS steps with h |lambda| > STIFF_BOUND)
-   goes on with the linearly implicit step (rosenbrock.c, docs/method.md, 10). Otherwise a run
-   stops rather than grind when its steps would pass max_steps: at once when a stiff mode
-   holds the step at the stability bound (DOPRI's, or the prescribed friction's:
-   FRICTION_BOUND) and the steps left at this size would pass the limit; when the steps left at this size would pass it GRIND_FACTOR times over for
-   GRIND_STEPS steps in a row; and when the limit is reached. */
+   goes on with the linearly implicit step (method/rosenbrock.c, docs/method.md, 10).
+   Otherwise a run stops rather than grind when its steps would pass max_steps: at once when a
+   stiff mode holds the step at the stability bound (DOPRI's, or the prescribed friction's:
+   FRICTION_BOUND) and the steps left at this size would pass the limit; when the steps left
+   at this size would pass it GRIND_FACTOR times over for GRIND_STEPS steps in a row; and when
+   the limit is reached. */
 static int step_budget(dep_run *run, double h)
 {
     const dep_rk_step *rk = run->outcome.rk;

@@ -92,7 +92,7 @@ void dep_hinge_transpose_times(const dep_system *system, const double *J_h, cons
     }
 }
 
-/* f (nq): the model's force plus J_h^T tau of the hinge torques (mechanism.c), the friction
+/* f (nq): the model's force plus J_h^T tau of the hinge torques (laws.c), the friction
    torques given (nh) or, with NULL, by the law. */
 static void force(const dep_system *system, const double *q, const double *qd, double t,
                   const double *friction, double *f)
