@@ -134,8 +134,7 @@ def _hinge_states(result, i: int) -> list[str]:
     """'latched' after the hinge's latch event, 'held' while another lock holds it, else
     'free'."""
     t = result.times[i]
-    latched = {e.name[:-len(".latch")] for e in result.events
-               if e.name.endswith(".latch") and e.t < t}
+    latched = {e.hinge for e in result.events if e.kind == "latch" and e.t < t}
     torque = result.hinge_torque
     out = []
     for k, h in enumerate(result.hinge_names):

@@ -35,7 +35,7 @@ DPI = 100
 
 def outputs_figure(result):
     """One panel per output vs time (s), titled with the model name. Outputs in "rad" are
-    drawn in degrees, "rad/s" in deg/s; latch events ("<h>.latch") are marked by red vertical
+    drawn in degrees, "rad/s" in deg/s; latch events (kind "latch") are marked by red vertical
     lines labelled with the hinge (labels of latches close in time are stacked, never
     overlapping), other events by grey ones."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -52,15 +52,15 @@ def outputs_figure(result):
         ax.set_ylabel(f"{name} [{unit}]" if unit else name)
         ax.grid(True, alpha=0.3)
         for event in result.events:
-            latch = event.name.endswith(".latch")
+            latch = event.kind == "latch"
             ax.axvline(event.t, color="tab:red" if latch else "0.6", lw=0.9 if latch else 0.6,
                        ls="--")
     axes[-1].set_xlabel("t [s]")
     figure.suptitle(result.model)
-    labels = [axes[0].annotate(event.name[:-len(".latch")], (event.t, 1.0),
+    labels = [axes[0].annotate(event.hinge, (event.t, 1.0),
                                xycoords=("data", "axes fraction"), xytext=(2, -10),
                                textcoords="offset points", color="tab:red", fontsize=8)
-              for event in result.events if event.name.endswith(".latch")]
+              for event in result.events if event.kind == "latch"]
     if labels:
         _stack_labels(figure, labels)
     return figure

@@ -87,6 +87,7 @@ def test_two_bar_latch_time_rates_impulse_and_energy_by_hand(build):
     result = simulate(module)
     ref = two_bar_reference()
     (latch,) = [e for e in result.events if e.name == "h2.latch"]
+    assert (latch.kind, latch.hinge) == ("latch", "h2")  # what the record is, not its name
     # the latch time: quadrature of the conserved H and T (independent of any integrator)
     assert abs(latch.t - ref["t"]) < 1e-9
     assert latch.data["rate"] == pytest.approx(ref["rate"], rel=1e-9)
@@ -160,6 +161,9 @@ def test_compliant_latch_loads_depend_on_its_stiffness(build, stiffness):
     # without damping the bar bounces off the latch and comes back: contact / separation
     names = [e.name for e in result.events]
     assert "h.latch.separation" in names and "h.latch.contact" in names
+    kinds = {e.name: (e.kind, e.hinge) for e in result.events}
+    assert kinds["h.latch.separation"] == ("latch.separation", "h")
+    assert kinds["h.latch.contact"] == ("latch.contact", "h")
     # energy, with the latch spring's potential: constant (1e-7 of the 1.6 J of spring work:
     # the output times sample the dense output, the step points are closer)
     assert "latch.h" in result.energy_names

@@ -76,7 +76,7 @@ def test_latch_labels_of_latches_close_in_time_do_not_overlap(result):
     from depsim.runtime.plot import outputs_figure
     from depsim.runtime.results import EventRecord
 
-    latches = [EventRecord(f"{h}.latch", t) for h, t in
+    latches = [EventRecord(f"{h}.latch", t, kind="latch", hinge=h) for h, t in
                (("h1", 0.300), ("hp", 0.302), ("hb", 0.305), ("h12", 0.309), ("h4", 0.6))]
     figure = outputs_figure(dataclasses.replace(result, events=tuple(latches)))
     figure.canvas.draw()
