@@ -174,7 +174,7 @@ typedef struct dep_implicit {
 #define DEP_RESPONSE_BLOCK 8
 /* W is kept for a step of its size while every entry of K and D now is within this fraction
    of sqrt(K_ii K_jj) (sqrt(D_ii D_jj)) of W's, the scale a positive semi-definite matrix's
-   entries have whatever the coordinates' units (2e-3 against 1e-3: 15 % less time on
+   entries have whatever the coordinates' units (2e-3 against 1e-3: 10 % less time on
    two_link_flex at 16 elements, chord2 5.4e-6 instead of 4.3e-6 rad; docs/method.md, 10) */
 #define DEP_JACOBIAN_DRIFT 2e-3
 
