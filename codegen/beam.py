@@ -51,6 +51,13 @@ class BeamSymbolic:
     damping: sympy.Expr | None  # s, stiffness-proportional coefficient
     elements: tuple[Element, ...]
 
+    def coordinate_sizes(self, length: sympy.Expr) -> tuple[sympy.Expr, ...]:
+        """Per coordinate, the size its errors are measured against: `length` for a node's
+        position, 1 for its slope vector (dimensionless)."""
+        one = sympy.Integer(1)
+        return tuple(length if c in ("x", "y") else one
+                     for _ in range(len(self.q) // len(NODE_COORDINATES)) for c in NODE_COORDINATES)
+
     # -- nodes and ends ------------------------------------------------------------------------
 
     def node(self, k: int) -> NodeCoordinates:

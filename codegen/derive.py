@@ -60,6 +60,7 @@ class SymbolicSystem:
     hinge_jacobian_pattern: tuple[tuple[int, int], ...]  # its structural non-zeros, row-major
     hinge_gamma: ImmutableMatrix  # (NH, 1), -(J qd)_q qd: a lock J qdd = hinge_gamma
     hinge_properties: ImmutableMatrix  # (NH, len(HINGE_PROPERTIES)), nan where not given
+    coordinate_scales: ImmutableMatrix  # (NQ, 1): the model's length for a position, else 1
     output_names: tuple[str, ...]
     outputs: ImmutableMatrix  # (NOUT, 1)
     energy_names: tuple[str, ...]
@@ -168,6 +169,7 @@ def derive(model: ir.Model) -> SymbolicSystem:
         hinge_jacobian=hinge_jacobian, hinge_jacobian_pattern=_pattern(hinge_jacobian),
         hinge_gamma=acceleration_rhs(thetas, hinge_jacobian, symbols),
         hinge_properties=_hinge_properties(model, kin),
+        coordinate_scales=_coordinate_scales(model, kin),
         output_names=tuple(o.name for o in model.outputs),
         outputs=column(_output(o, kin) for o in model.outputs),
         energy_names=loads.energy_names, energy=column(loads.energies),
@@ -179,6 +181,26 @@ def derive(model: ir.Model) -> SymbolicSystem:
         stiffness_pattern=loads.stiffness.pattern, stiffness=column(loads.stiffness.K),
         stiffness_damping=column(loads.stiffness.D),
     )
+
+
+def _coordinate_scales(model: ir.Model, kin: Kinematics) -> ImmutableMatrix:
+    """Per coordinate, the size its errors are measured against (docs/method.md, 4): for a
+    position the model's length, the size of its largest member (a bar's or beam's length, a
+    body's largest distance from its centre of mass to a point, or its radius of gyration);
+    1 for an angle or a beam node's slope vector. So a mechanism scaled in size is integrated
+    to the same relative accuracy."""
+    sizes = [kin.const(beam.length) for beam in model.beams]
+    for body in model.bodies:
+        if body.length is not None:
+            sizes.append(kin.const(body.length))
+        sizes.append(sympy.sqrt(kin.const(body.inertia) / kin.const(body.mass)))
+        sizes += [sympy.sqrt(kin.const(point.x) ** 2 + kin.const(point.y) ** 2)
+                  for point in body.points]
+    length = sympy.Max(*sizes) if sizes else sympy.Integer(1)
+    scales = [length, length, sympy.Integer(1)] * len(model.bodies)
+    for beam in kin.beams:
+        scales += beam.coordinate_sizes(length)
+    return column(scales)
 
 
 def _loop_targets(model: ir.Model, kin: Kinematics, held: int) -> ImmutableMatrix:

@@ -134,6 +134,7 @@ def function_specs(system: SymbolicSystem) -> tuple[FunctionSpec, ...]:
         "hinge_rates": (s.hinge_rates,), "hinge_jacobian": (column(s.hinge_jacobian[i, j] for i, j in s.hinge_jacobian_pattern),),
         "hinge_gamma": (s.hinge_gamma,), "hinge_properties": (s.hinge_properties,),
         "outputs": (s.outputs,), "energy": (s.energy,), "dissipation": (s.dissipation,),
+        "coordinate_scales": (s.coordinate_scales,),
         "stiffness": (s.stiffness, s.stiffness_damping),
     }
     return tuple(FunctionSpec(f.name, f.args, f.summary,

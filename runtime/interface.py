@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-ABI = 10  # DEP_MODEL_ABI: bumped whenever the dep_model struct changes
+ABI = 11  # DEP_MODEL_ABI: bumped whenever the dep_model struct changes
 
 ARGUMENTS = ("v", "vd", "q", "qd", "t", "p", "lam")  # each function takes a subsequence, in order
 
@@ -177,6 +177,9 @@ FUNCTIONS = (
              "Kinetic energy and each potential (J), in the order of ENERGIES."),
     Function("dissipation", ("q", "qd", "t", "p"), (Output("P", ("nd",)),),
              "Power removed by each element of DISSIPATORS (W)."),
+    Function("coordinate_scales", ("p",), (Output("s", ("nq",)),),
+             "The size (SI) each coordinate's errors are measured against: the model's length "
+             "(its largest member's) for a position, 1 for an angle or a beam's slope."),
     Function("stiffness", ("q", "p"), (Output("K", ("nkz",)), Output("D", ("nkz",))),
              "The stiff forces' Jacobian of a model with beams, K ~ -df/dq and D ~ -df/dqd, at "
              "(STIFFNESS_ROWS, STIFFNESS_COLS)."),

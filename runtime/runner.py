@@ -40,14 +40,14 @@ def simulate(module, params: np.ndarray | None = None, t_end: float | None = Non
     t_end, dt_out (s) and tol default to the module's T_END, DT_OUT, TOL; events: `Event`s;
     progress: draw a bar on stderr (only when it is a terminal); mechanics: apply the hinges'
     latches, stops and stick-slip friction (docs/deployment.md); False integrates without;
-    max_steps: the most accepted steps (default 1e6); a stiff run that would need more stops
-    as soon as the stiffness shows (docs/method.md, 6); inputs: {input name: time table},
-    a table being rows (t, u) in s and SI, u linear in between (a repeated t is a jump) and
-    held beyond the ends, or one number (a constant); an input not given keeps its
-    parameters (docs/language.md, Inputs); stepping: the ODE method under the multiplier
-    iteration, "auto" (DOPRI 5(4), and for a model with beams the linearly implicit step once
-    a stiff mode holds DOPRI's step at its stability bound), "explicit" or "implicit"
-    (docs/method.md, 10).
+    max_steps: the most steps, the rejected and retried ones counted (default 1e6); a stiff
+    run that would need more stops as soon as the stiffness shows (docs/method.md, 6);
+    inputs: {input name: time table}, a table being rows (t, u) in s and SI, u linear in
+    between (a repeated t is a jump) and held beyond the ends, or one number (a constant); an
+    input not given keeps its parameters (docs/language.md, Inputs); stepping: the ODE method
+    under the multiplier iteration, "auto" (DOPRI 5(4), and for a model with beams the
+    linearly implicit step once a stiff mode holds DOPRI's step at its stability bound),
+    "explicit" or "implicit" (docs/method.md, 10).
     Raises SolverError when the integration cannot go on, ValueError for bad settings.
     """
     binding = bind(module)

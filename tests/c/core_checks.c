@@ -230,6 +230,14 @@ static void mass_matrix(const double *p, double *M)
     memcpy(M, given_mass, (size_t)given_nq * (size_t)given_nq * sizeof *M);
 }
 
+static void unit_scales(const double *p, double *s)
+{
+    (void)p;
+    for (int j = 0; j < given_nq; ++j) {
+        s[j] = 1.0; /* the test's coordinates are of unit size */
+    }
+}
+
 static int project(int nq, int nc)
 {
     double *M = read_numbers(nq * nq), *J = read_numbers(nc * nq), *qd = read_numbers(nq);
@@ -246,7 +254,8 @@ static int project(int nq, int nc)
     }
     dep_model model = {.abi = DEP_MODEL_ABI, .name = "projection", .nq = nq, .nc = nc,
                        .nnz = nc * nq, .nmz = nq * nq, .mass_rows = every_row,
-                       .mass_cols = every_col, .mass_matrix = mass_matrix};
+                       .mass_cols = every_col, .mass_matrix = mass_matrix,
+                       .coordinate_scales = unit_scales};
     parts x;
     memset(&x, 0, sizeof x);
     dep_constraints cs; /* the rows' pattern: every coordinate, so J is its own storage */

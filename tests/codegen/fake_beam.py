@@ -29,6 +29,9 @@ class FakeBeam:
         self.mass_matrix = sympy.diag(*[m for m in lumped for _ in "xy"])
         self.elastic_energy = self._elastic()
 
+    def coordinate_sizes(self, length):
+        return tuple(length for _ in self.q)  # every coordinate a position
+
     def node(self, i):
         return self.q[2 * i], self.q[2 * i + 1]
 

@@ -132,7 +132,9 @@ def test_spring_clamped_cantilever_settles_at_the_static_deflection(tmp_path):
     tail = tip[result.times >= 0.9 * STATIC["t_end"]]
     assert np.ptp(tail) < 1e-3 * exact  # settled
     assert tip[-1] == pytest.approx(exact, rel=2e-3)  # measured: -1.5e-4
-    assert result.stats.max_v_pos < 1e-8
+    # The position pass holds each row within constraint_tol times its size,
+    # sum_k |J_ik| (s_k + |q_k|), s_k the coordinate's scale (L): a few L for these rows.
+    assert result.stats.max_v_pos < 10 * result.constraint_tol * STATIC["L"]
 
 
 def test_static_equilibrium_of_the_generated_forces_at_eight_elements(tmp_path):

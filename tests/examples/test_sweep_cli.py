@@ -54,6 +54,13 @@ def test_default_study_measures_what_single_runs_do(cli, tmp_path):
                 if name.startswith("stats.") and "wall" in name:
                     continue
                 got = float(study[name].values[run])
+                if name.startswith("peak.") and ".t_" not in name:
+                    # the plain run's peak also sees its output times between the steps;
+                    # the load varies by O(h^2) of its size there (h: 1e-2 s steps)
+                    assert value * (1 - 1e-3) <= got <= value, name
+                    continue
+                if name.startswith("peak.") and ".t_" in name:
+                    continue  # the instant of that peak: a step's or an output time's
                 assert got == value or (math.isnan(got) and math.isnan(value)), name
 
 

@@ -240,6 +240,17 @@ def dissipation(q, qd, t, p):
     return P
 
 
+def coordinate_scales(p):
+    """The size (SI) each coordinate's errors are measured against: the model's length (its largest member's) for a position, 1 for an angle or a beam's slope."""
+    s = numpy.zeros((3,))
+    x0 = math.sqrt((p[0]*p[0]))
+    x1 = max(p[0], 0.5*x0, (1/6)*math.sqrt(3)*x0)
+    s[0] = x1
+    s[1] = x1
+    s[2] = 1
+    return s
+
+
 def stiffness(q, p):
     """The stiff forces' Jacobian of a model with beams, K ~ -df/dq and D ~ -df/dqd, at (STIFFNESS_ROWS, STIFFNESS_COLS)."""
     K = numpy.zeros((0,))

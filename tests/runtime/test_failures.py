@@ -43,23 +43,22 @@ def drifting_pin(pendulum, start=0.1, rate=1e-2):
                    hinge_properties=lambda p: np.full((2, 8), np.nan))
 
 
-def test_a_dead_point_is_reported_with_the_joint(slider_crank):
+def test_a_dead_point_is_passed_on_its_branch(slider_crank):
     """With rod length = crank length the loop has dead points at 90 and 270 degrees (piston
-    at the crank pivot) where Phi_q loses rank and the multipliers diverge. Whether a step
-    happens to pass the first one depends on round-off; where the run stops is determined: at
-    a dead point, naming a joint of the loop."""
+    at the crank pivot) where Phi_q loses rank and two branches cross: the piston at
+    x = 2 r cos(theta), or held at x = 0. The run passes them (the weak direction deflated,
+    docs/method.md, Scale, rank and singular positions) and keeps to the branch it moves on,
+    as the mechanism's inertia does: x = 2 r cos(theta) throughout, to the position pass's
+    limits."""
     p = np.array(slider_crank.PARAMETER_DEFAULTS)
     p[1] = p[0]  # l = r
     p[8], p[9], p[10] = 0.0, np.radians(60), 5.0  # start at 60 deg, turning towards 90
-    with pytest.raises(SolverError) as caught:
-        simulate(slider_crank, p, t_end=1.0, tol=1e-9)
-    error = caught.value
-    assert error.stage in ("position", "velocity", "acceleration")
-    assert error.joint in ("hinge crank_pin", "hinge wrist", "hinge gudgeon", "slider guide")
-    assert error.joint in str(error) and "dead point" in str(error)
-    before = simulate(slider_crank, p, t_end=error.t - 0.005, tol=1e-9)  # about 1.5 degrees
-    crank = np.degrees(before.output("crank_angle")[-1])
-    assert abs((crank - 90) - 180 * round((crank - 90) / 180)) < 3.0, crank
+    tol, r = 1e-9, p[0]
+    result = simulate(slider_crank, p, t_end=1.0, tol=tol)
+    theta, x = result.output("crank_angle"), result.output("piston_x")
+    passed = np.count_nonzero(np.diff(np.sign(np.cos(theta))) != 0)
+    assert passed >= 2  # through 90 deg on the way up and again on the way back
+    assert np.max(np.abs(x - 2 * r * np.cos(theta))) < tol * r
 
 
 def test_redundant_rows_that_become_inconsistent_fail_where_they_part(pendulum):

@@ -93,9 +93,10 @@ def test_the_implicit_steps_error_falls_with_tol(pendulum):
     assert tip[1e-6] > tip[1e-8] > 10 * tip[1e-10]
     assert chord[1e-8] < 2e-5 and tip[1e-8] < 1e-4
     assert chord[1e-10] < 1e-7 and tip[1e-10] < 1e-6
-    for result in errors.values():  # the position level holds at every step (|v| <=
-        # constraint_tol (1 + |q|), |q| <= 2 m here)
-        assert result.stats.max_v_pos <= 3 * result.constraint_tol
+    for result in errors.values():  # the position level holds at every step: each row
+        # within constraint_tol of its size sum_k |J_ik| (s_k + |q_k|), s_k = 1 m (the
+        # links' length), |q| <= 2 m: at most a few metres for the hinges' and nodes' rows
+        assert result.stats.max_v_pos <= 10 * result.constraint_tol
 
 
 def test_the_implicit_step_only_damps(pendulum):

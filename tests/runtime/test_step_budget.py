@@ -2,6 +2,8 @@
 a stiff mode at the explicit method's stability bound, friction stiff on the constrained
 mechanism, a motion too fast for the time asked, and the max_steps limit itself."""
 
+import re
+
 import numpy as np
 import pytest
 
@@ -122,7 +124,10 @@ def test_a_motion_too_fast_for_the_time_asked_stops_after_a_thousand_steps(build
 
 def test_max_steps_is_a_hard_limit(build):
     module = build(DOUBLE.format(k=1e3, c=0, t_end=2))
-    with pytest.raises(SolverError, match=r"max_steps = 50 steps taken, with [0-9.]+ s left"):
+    with pytest.raises(SolverError, match=r"max_steps = 50 steps taken \(.*\), "
+                       r"with [0-9.]+ s left") as caught:
         simulate(module, max_steps=50)
+    counts = re.search(r"\((\d+) accepted, (\d+) rejected, (\d+) retried\)", str(caught.value))
+    assert sum(int(n) for n in counts.groups()) == 50  # every attempt counts
     with pytest.raises(ValueError, match="max_steps must be"):
         simulate(module, max_steps=-1)

@@ -22,14 +22,24 @@ typedef struct dep_envelope {
     int *first, *offset; /* n, n + 1 */
     double *A, *L;       /* offset[n] each */
     double *inverse;     /* n: 1 / L_ii (the solves multiply: a division's latency would
-                            set their pace, each row waiting on the one before) */
+                            set their pace, each row waiting on the one before); 0 for a row
+                            the factor dropped */
+    int dropped;         /* rows the last semi-definite factor dropped */
+    double min_pivot;    /* and the smallest pivot it kept relative to its row's diagonal, */
+    int min_row;         /* at this row (1 / min_pivot: about the condition of A scaled to a
+                            unit diagonal) */
 } dep_envelope;
 
 #define DEP_ENVELOPE_AT(e, M, i, j) ((M)[(e)->offset[i] + (j) - (e)->first[i]])
 
 /* Room for the envelope whose row i starts at column first[i] <= i (copied); A zeroed. */
 int dep_envelope_init(dep_envelope *e, int n, const int *first, dep_arena *arena);
-int dep_envelope_factor(dep_envelope *e); /* 0 when not positive definite to working precision */
+/* The Cholesky factor of A; 0 when A is not positive definite to working precision. With
+   drop > 0, A positive semi-definite: a row whose pivot is at most drop times its diagonal
+   depends on the rows before it and is dropped (its column of L and its inverse pivot are 0,
+   so a solve gives the solution with that component nought: the basic solution of a
+   consistent system); e->dropped counts them. */
+int dep_envelope_factor(dep_envelope *e, double drop);
 void dep_envelope_solve(const dep_envelope *e, const double *b, double *x); /* x may be b */
 /* The same for `count` right sides at once, interleaved: entry i of side v at [i count + v]. */
 void dep_envelope_solve_block(const dep_envelope *e, int count, const double *b, double *x);
@@ -58,7 +68,8 @@ size_t dep_envelope_size(const dep_pattern *pattern, const int *rank, int *first
 
 /* ---- dense.c ------------------------------------------------------------------------------- */
 
-/* x = (L L^T)^-1 b for a dense lower Cholesky factor L (n x n); x may be b. */
+/* x = (L L^T)^-1 b for a dense lower Cholesky factor L (n x n), the components of rows whose
+   pivot L_ii is 0 (dropped) nought; x may be b. */
 void dep_cholesky_solve(const double *L, int n, const double *b, double *x);
 /* x = A^-1 b for the n x n matrix A (row-major, overwritten), by elimination with partial
    pivoting; b is overwritten by x. */

@@ -10,14 +10,14 @@ void dep_cholesky_solve(const double *L, int n, const double *b, double *x)
         for (int k = 0; k < i; ++k) {
             sum -= L[i * n + k] * x[k];
         }
-        x[i] = sum / L[i * n + i];
+        x[i] = L[i * n + i] != 0.0 ? sum / L[i * n + i] : 0.0; /* (0: a dropped row) */
     }
     for (int i = n - 1; i >= 0; --i) { /* L^T x = y */
         double sum = x[i];
         for (int k = i + 1; k < n; ++k) {
             sum -= L[k * n + i] * x[k];
         }
-        x[i] = sum / L[i * n + i];
+        x[i] = L[i * n + i] != 0.0 ? sum / L[i * n + i] : 0.0;
     }
 }
 

@@ -26,12 +26,15 @@ int dep_envelope_init(dep_envelope *e, int n, const int *first, dep_arena *arena
     return arena->failed ? DEP_MEMORY_ERROR : DEP_OK;
 }
 
-int dep_envelope_factor(dep_envelope *e)
+int dep_envelope_factor(dep_envelope *e, double drop)
 {
     double largest = 0.0;
     for (int i = 0; i < e->n; ++i) {
         largest = fmax(largest, DEP_ENVELOPE_AT(e, e->A, i, i));
     }
+    e->dropped = 0;
+    e->min_pivot = 1.0;
+    e->min_row = -1;
     for (int i = 0; i < e->n; ++i) {
         for (int j = e->first[i]; j <= i; ++j) {
             int from = e->first[i] > e->first[j] ? e->first[i] : e->first[j];
@@ -43,11 +46,23 @@ int dep_envelope_factor(dep_envelope *e)
             }
             if (j < i) { /* (times the pivot's inverse: no division's latency on the row) */
                 DEP_ENVELOPE_AT(e, e->L, i, j) = sum * e->inverse[j];
-            } else if (!(sum > 1e-12 * largest)) {
+                continue;
+            }
+            double diagonal = DEP_ENVELOPE_AT(e, e->A, i, i);
+            if (drop > 0.0 && !isnan(sum) && sum <= drop * diagonal) {
+                DEP_ENVELOPE_AT(e, e->L, i, i) = 0.0; /* row i depends on the rows before it */
+                e->inverse[i] = 0.0;
+                e->dropped++;
+                continue;
+            }
+            if (!(sum > (drop > 0.0 ? 0.0 : 1e-12 * largest))) {
                 return 0;
-            } else {
-                DEP_ENVELOPE_AT(e, e->L, i, i) = sqrt(sum);
-                e->inverse[i] = 1.0 / DEP_ENVELOPE_AT(e, e->L, i, i);
+            }
+            DEP_ENVELOPE_AT(e, e->L, i, i) = sqrt(sum);
+            e->inverse[i] = 1.0 / DEP_ENVELOPE_AT(e, e->L, i, i);
+            if (sum < e->min_pivot * diagonal) {
+                e->min_pivot = sum / diagonal;
+                e->min_row = i;
             }
         }
     }

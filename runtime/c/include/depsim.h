@@ -56,9 +56,10 @@ typedef struct dep_settings {
        progress bar or honours Ctrl-C here. */
     int (*progress)(void *context, double t);
     void *progress_context;
-    /* The most accepted steps a run may take (0: DEP_MAX_STEPS). A run that would need more
-       stops with a SolverError: at once when its step is held down by stability (a stiff
-       mode) and the steps left would pass the limit, else when it is reached. */
+    /* The most steps a run may take, the rejected and retried ones counted (0: DEP_MAX_STEPS).
+       A run that would need more stops with a SolverError: at once when its step is held
+       down by stability (a stiff mode) and the steps left would pass the limit, else when it
+       is reached, however small its steps. */
     double max_steps;
     /* Inputs given as time tables (dep_simulate; NULL/0: none). An input without a table
        keeps its parameter slots: u(t) = p[slot] + p[slot + 1] t. */

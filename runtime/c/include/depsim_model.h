@@ -12,7 +12,7 @@
 #ifndef DEPSIM_MODEL_H
 #define DEPSIM_MODEL_H
 
-#define DEP_MODEL_ABI 10 /* bumped whenever this struct changes */
+#define DEP_MODEL_ABI 11 /* bumped whenever this struct changes */
 
 /* The columns of hinge_properties (HINGE_PROPERTIES): the hinge attributes the
    integrator applies itself (docs/language.md, hinge), SI; nan where not given. */
@@ -140,6 +140,8 @@ typedef struct dep_model {
     void (*energy)(const double *q, const double *qd, double t, const double *p, double *E);
     /* Power removed by each element of DISSIPATORS (W). */
     void (*dissipation)(const double *q, const double *qd, double t, const double *p, double *P);
+    /* The size (SI) each coordinate's errors are measured against: the model's length (its largest member's) for a position, 1 for an angle or a beam's slope. */
+    void (*coordinate_scales)(const double *p, double *s);
     /* The stiff forces' Jacobian of a model with beams, K ~ -df/dq and D ~ -df/dqd, at (STIFFNESS_ROWS, STIFFNESS_COLS). */
     void (*stiffness)(const double *q, const double *p, double *K, double *D);
 } dep_model;

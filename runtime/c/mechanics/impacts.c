@@ -16,7 +16,8 @@ typedef struct position_projection {
 } position_projection;
 
 /* q+ = q - M^-1 J(q)^T mu, v = -Phi(q+). */
-static void measure_position(void *context, const double *mu, dep_measurement *out)
+static void measure_position(void *context, const double *mu, int sized,
+                             dep_measurement *out)
 {
     position_projection *pp = context;
     int nq = pp->cs->nq, nc = pp->cs->nc;
@@ -32,7 +33,13 @@ static void measure_position(void *context, const double *mu, dep_measurement *o
     dep_cs_jacobian(pp->cs, out->x, pp->t, out->J_own);
     out->J = out->J_own;
     out->jacobian_id = ++*pp->ids;
-    out->scale = dep_max_abs(out->x, nq);
+    dep_cs_sizes(pp->cs, out->J, out->x, out->size);
+    if (sized) { /* q+ is the difference of q and M^-1 J^T mu */
+        for (int j = 0; j < nq; ++j) {
+            pp->solved[j] = fabs(pp->q[j]) + fabs(pp->solved[j]);
+        }
+        dep_cs_abs_times(pp->cs, out->J, pp->solved, out->magnitude);
+    }
 }
 
 /* q moved M-orthogonally onto Phi(q) = 0 (project_positions). */

@@ -87,21 +87,39 @@ void dep_cs_transpose_times(const dep_constraints *cs, const double *J, const do
     }
 }
 
-double dep_cs_times_scale(const dep_constraints *cs, const double *J, const double *x,
-                          double *out)
+void dep_cs_sizes(const dep_constraints *cs, const double *J, const double *x, double *size)
 {
-    double largest = 0.0;
+    const double *s = cs->system->scales;
     for (int i = 0; i < cs->nc; ++i) {
-        double sum = 0.0, size = 0.0;
+        double sum = 0.0;
         for (int k = cs->row_start[i]; k < cs->row_start[i + 1]; ++k) {
-            double term = J[k] * x[cs->row_cols[k]];
-            sum += term;
-            size += fabs(term);
+            int j = cs->row_cols[k];
+            sum += fabs(J[k]) * (s[j] + fabs(x[j]));
+        }
+        size[i] = sum;
+    }
+}
+
+void dep_cs_abs_times(const dep_constraints *cs, const double *J, const double *m, double *out)
+{
+    for (int i = 0; i < cs->nc; ++i) {
+        double sum = 0.0;
+        for (int k = cs->row_start[i]; k < cs->row_start[i + 1]; ++k) {
+            sum += fabs(J[k]) * m[cs->row_cols[k]];
         }
         out[i] = sum;
-        largest = isnan(size) || size > largest ? size : largest; /* (NaN kept) */
     }
-    return largest;
+}
+
+void dep_cs_abs_transpose_times(const dep_constraints *cs, const double *J, const double *y,
+                                double *out)
+{
+    memset(out, 0, (size_t)cs->nq * sizeof *out);
+    for (int i = 0; i < cs->nc; ++i) {
+        for (int k = cs->row_start[i]; k < cs->row_start[i + 1]; ++k) {
+            out[cs->row_cols[k]] += fabs(J[k] * y[i]);
+        }
+    }
 }
 
 int dep_constraints_init(dep_constraints *cs, const dep_system *system, dep_arena *arena)

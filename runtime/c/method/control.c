@@ -19,11 +19,12 @@
 #define RHO_TARGET 0.2 /* wanted contraction rate of the position pass */
 #define NEWTON_DONE 1e-9 /* a change of log fac this small ends integral_factor's Newton */
 
-void dep_weights(const double *y0, const double *y1, int n, double tol, double *scale)
+void dep_weights(const double *y0, const double *y1, int n, double tol, const double *floors,
+                 double *scale)
 {
     for (int i = 0; i < n; ++i) { /* (a comparison, not fmax: a libm call on x86-64) */
         double a = fabs(y0[i]), b = fabs(y1[i]);
-        scale[i] = tol * (1.0 + (a > b ? a : b));
+        scale[i] = tol * (floors[i] + (a > b ? a : b));
     }
 }
 
@@ -167,11 +168,11 @@ double dep_convergence_factor(const dep_pass_report *report)
 
 /* Hairer-Norsett-Wanner's starting step (Solving ODEs I, II.4). scratch: 3 n. */
 double dep_initial_step(dep_rhs_function rhs, void *context, double t0, const double *y0,
-                        const double *f0, int n, int order, double tol, double span,
-                        double *scratch)
+                        const double *f0, int n, int order, double tol,
+                        const double *floors, double span, double *scratch)
 {
     double *scale = scratch, *y1 = scratch + n, *f1 = scratch + 2 * (size_t)n;
-    dep_weights(y0, y0, n, tol, scale);
+    dep_weights(y0, y0, n, tol, floors, scale);
     double d0 = dep_rms(y0, scale, n), d1 = dep_rms(f0, scale, n);
     double h0 = d0 < 1e-5 || d1 < 1e-5 ? 1e-6 : 0.01 * d0 / d1, h1;
     h0 = fmin(h0, span);

@@ -153,8 +153,8 @@ int dep_stepper_friction_settled(dep_stepper *stepper, const double *q1, const d
         for (int k = 0; k < nf; ++k) {
             total += r[stepper->free_hinges[k]] * stepper->mobile[(size_t)k * (size_t)nq + j];
         }
-        double move = h * h * P * total / (stepper->tol * (1.0 + fabs(q1[j])));
-        double rate = h * V * total / (stepper->tol * (1.0 + fabs(qd1[j])));
+        double move = h * h * P * total / (stepper->tol * (stepper->floors[j] + fabs(q1[j])));
+        double rate = h * V * total / (stepper->tol * (stepper->floors[nq + j] + fabs(qd1[j])));
         sum += move * move + rate * rate;
     }
     if (sqrt(sum / (2 * nq)) <= FRICTION_LIMIT) {
@@ -204,10 +204,10 @@ int dep_stepper_friction_failure(const dep_stepper *stepper, dep_failure *failur
             worst = i;
         }
     }
+    memset(failure, 0, sizeof *failure);
     failure->stage = DEP_VELOCITY;
     failure->row = -1;
     failure->residual = off;
-    failure->scale = 0.0;
     snprintf(failure->reason, sizeof failure->reason, "the friction torques at the step's end "
              "did not settle in %d trials (hinge %s: %.3g N m off its law)", DEP_FRICTION_ROUNDS,
              system->hinges[worst].name, off);

@@ -73,13 +73,19 @@ void dep_cs_v_acc(dep_constraints *cs, const double *q, const double *qd, const 
                   double t, const double *J, double *out);
 void dep_cs_describe(const dep_constraints *cs, int row, char *joint_text, size_t size);
 /* Products with a Jacobian J of the active rows (dep_cs_jacobian), over its pattern only:
-   out = J x (nc), out = J^T y (nq); dep_cs_times_scale: out = J x, returning max_i sum_j
-   |J_ij x_j| (the round-off scale of J x; NaN when a product is). */
+   out = J x (nc), out = J^T y (nq). */
 void dep_cs_times(const dep_constraints *cs, const double *J, const double *x, double *out);
 void dep_cs_transpose_times(const dep_constraints *cs, const double *J, const double *y,
                             double *out);
-double dep_cs_times_scale(const dep_constraints *cs, const double *J, const double *x,
-                          double *out);
+/* What each row's residual is measured against: size_i = sum_j |J_ij| (s_j + |x_j|), s the
+   coordinates' sizes (system->scales), x the pass's vector (q, qd or qdd): the change of the
+   row that moving each coordinate by its weight's unit makes (docs/method.md, 2). */
+void dep_cs_sizes(const dep_constraints *cs, const double *J, const double *x, double *size);
+/* out_i = sum_j |J_ij| m_j (m >= 0: the sizes of the terms x_j is made of, the round-off
+   scale of J x); out_j = sum_i |J_ij| |y_i| (the sizes of the terms of J^T y). */
+void dep_cs_abs_times(const dep_constraints *cs, const double *J, const double *m, double *out);
+void dep_cs_abs_transpose_times(const dep_constraints *cs, const double *J, const double *y,
+                                double *out);
 int dep_cs_remove(dep_constraints *cs, const char *name);
 int dep_cs_add(dep_constraints *cs, const dep_row *row, dep_error *error);
 /* A row of an event callback (dep_row) as an added row: checked, named "<hinge>.lock" by
@@ -203,40 +209,64 @@ enum dep_stage { DEP_POSITION = 0, DEP_VELOCITY = 1, DEP_ACCELERATION = 2 };
 extern const char *const dep_stage_names[3];
 
 #define DEP_MAX_ITERATIONS 25
+#define DEP_SECANTS 8 /* secant corrections a pass keeps (multipliers.c) */
 #define DEP_MAX_HALVINGS 4
 
 typedef struct dep_pass_report {
     int stage, iterations, n_errors;
+    int roundoff;    /* 1: it ended at the round-off of its residuals, above tol's limit */
     long long cg_iterations;
-    double errors[DEP_MAX_ITERATIONS + 1];
+    double residual; /* max |v| at its end, in the rows' units */
+    double errors[DEP_MAX_ITERATIONS + 1]; /* max_i |v_i| / size_i at each iterate */
 } dep_pass_report;
 
+/* Why a pass failed: what run/state.c tells the user, and what helps. */
+enum dep_failure_kind {
+    DEP_FAILED_STEP = 0,    /* not a constraint row: the step itself (row -1) */
+    DEP_FAILED_NONFINITE,   /* the state or the forces became NaN or infinite */
+    DEP_FAILED_INCONSISTENT, /* rows S's factor found dependent keep a residual: the
+                                constraints cannot all hold here */
+    DEP_FAILED_CONDITION,   /* S ill-conditioned beyond what the pass can resolve */
+    DEP_FAILED_NONLINEAR    /* the update did not reduce the error at a well-conditioned S */
+};
+
 typedef struct dep_failure {
-    int stage, row; /* row -1: not a constraint row */
-    double residual, scale;
+    int stage, row, kind; /* row -1: not a constraint row; kind: enum dep_failure_kind */
+    double residual;      /* |v| of the row (its units) */
+    double limit;         /* what it had to fall below there: tol times the row's size */
+    double roundoff;      /* the round-off level of the row's residual */
+    double condition;     /* about S's condition (1 / its smallest relative pivot; 0: S
+                             was not factored) */
+    int rank, rows;       /* the rank S's factor found, of `rows` */
+    int weak_row;         /* the row of the smallest pivot (-1: none) */
     char reason[256];
     char hint[256]; /* with row -1: what to try ("": the state may not be finite) */
 } dep_failure;
 
 typedef struct dep_measurement {
-    double *v;                 /* nc */
+    double *v;                 /* nc: the residual */
+    double *size;              /* nc: what each row's residual is measured against
+                                  (dep_cs_sizes) */
+    double *magnitude;         /* nc: the size of the terms v_i is computed from (its
+                                  round-off, over DEP_EPS), when measured `sized` */
     double *J_own;             /* nc x nq storage when the pass measures its own Jacobian */
     const double *J;           /* the Jacobian of v */
     long long jacobian_id;     /* identity of J's contents (the Schur cache key) */
-    double scale;
     double *x;                 /* nq: the pass's vector (qd1, qdd, qd+) */
     dep_rk_step rk;            /* the position pass's trajectory */
 } dep_measurement;
 
-typedef void (*dep_measure_function)(void *context, const double *lam, dep_measurement *out);
+/* The pass's residual v at lam, and each row's size; with `sized`, magnitude too. */
+typedef void (*dep_measure_function)(void *context, const double *lam, int sized,
+                                     dep_measurement *out);
 
 typedef void (*dep_mobility_function)(void *context, const double *x, double *out);
 
 /* A small dense factor of S set aside while the passes see another mobility (schur.c). */
 typedef struct dep_schur_kept {
     long long id, mobility, pattern; /* (id -1: none) */
-    int nc;
-    double J_largest;
+    int nc, exact, dropped, min_row;
+    double J_largest, min_pivot;
     double *S, *L, *diag, *J;
 } dep_schur_kept;
 
@@ -254,6 +284,12 @@ typedef struct dep_multipliers { /* scratch of the iteration and its Schur-compl
     long long mobility_id, schur_mobility;
     long long schur_id, factorizations;
     int schur_nc, schur_explicit, schur_factored;
+    int schur_exact;           /* 1: S was formed from the Jacobian schur_id names (not a nearby
+                                  one that serves it) */
+    int schur_dropped;         /* rows its factor dropped: S is singular (redundant rows, a
+                                  singular position) */
+    int schur_min_row;         /* the row of the smallest pivot its factor kept, relative to */
+    double schur_min_pivot;    /* its diagonal (1 / it: about S's condition; -1, 1: none) */
     long long schur_pattern;   /* the rows' pattern (cs->pattern) S was formed for */
     double *schur_J;           /* the Jacobian's non-zeros S was formed from */
     double schur_J_largest;    /* and the largest of them in size */
@@ -274,6 +310,15 @@ typedef struct dep_multipliers { /* scratch of the iteration and its Schur-compl
        Cuthill-McKee when it at least halves the envelope (permuted), else the rows' own. */
     int *rank, *order, *degree, permuted;
     double *permuted_in, *permuted_out;
+    /* The iteration's secant corrections (multipliers.c): the step for a residual v is
+       K v = S^-1 v / C + sum_k u_k (w_k . v), DEP_SECANTS pairs of capacity each; y: scratch */
+    double *secant_u, *secant_w, *secant_y;
+    int secants;
+    double rank_drop;   /* the pivot, relative to its diagonal, below which a row is dropped */
+    double *range;      /* capacity: a residual less its part along the null vectors */
+    double *nulls;      /* DEP_NULL_MAX x capacity: S's null vectors (orthonormal) for the */
+    long long nulls_id; /* factor of the Jacobian with this id (-1: none) */
+    int n_nulls;
 } dep_multipliers;
 
 int dep_multipliers_init(dep_multipliers *mp, const dep_mass *mass,
@@ -288,14 +333,31 @@ int dep_iterate_multipliers(dep_multipliers *mp, int stage, double *lam, int nc,
                             dep_measure_function measure, void *context, double C, double tol,
                             dep_measurement *slots[2], dep_measurement **final,
                             dep_pass_report *report, dep_failure *failure);
+/* The size of the terms a pass's residual v = b - J x is computed from, x = x0 - c M^-1 J^T
+   lam (c: the pass's C): magnitude_i = |b_i| + sum_j |J_ij| (|x_j| + c (M^-1 |J^T| |lam|)_j)
+   (b may be NULL). Its round-off is about DEP_EPS times that. */
+void dep_pass_magnitude(dep_multipliers *mp, const double *J, int nc, const double *lam,
+                        double c, const double *x, const double *b, double *magnitude);
+/* The null vectors of the factor dep_schur_form left, one per dropped row (up to
+   DEP_NULL_MAX), orthonormal, into mp->nulls; their count. */
+int dep_schur_nulls(dep_multipliers *mp, int nc);
 /* x = S^-1 b for the rows J (nc x nq) with identity jacobian_id; 1 when solved. */
 int dep_schur_solve(dep_multipliers *mp, const double *J, long long jacobian_id, int nc,
                     const double *b, double *x);
+/* A row of S whose pivot is at most DEP_RANK_DROP of its diagonal depends on the rows before
+   it to round-off: S's factor drops it (dep_envelope_factor). One whose pivot is at most
+   mp->rank_drop of its diagonal (DEP_RANK_WEAK for the step's passes: the row lies within
+   3e-5 rad of the span of the others) is a direction of S's null space for the iteration,
+   which takes the minimum-norm multipliers there (dep_schur_nulls, docs/method.md, 2). */
+#define DEP_RANK_DROP 1e-15
+#define DEP_RANK_WEAK 1e-9
+#define DEP_NULL_MAX 8 /* null vectors of S the iteration handles (more: only the first) */
 /* A Jacobian this close (relative) keeps the factor of S. */
 #define DEP_SCHUR_REUSE 1e-6
 /* S for the rows J (identity id): the factor at hand when it serves them (formed for them, or
    for the same rows and mobility at a Jacobian whose non-zeros all lie within `allowed` times
-   J's largest of J's), a kept one that serves, else formed anew. */
+   J's largest of J's), a kept one that serves, else formed anew (allowed 0: the factor of J
+   itself, formed anew unless the one at hand is of exactly these values). */
 void dep_schur_form(dep_multipliers *mp, const double *J, long long id, int nc, double allowed);
 /* x = S^-1 b (x may be b) with the S dep_schur_form left: by its factor, else by conjugate
    gradients (their iterations added to *iterations); 1 when solved. */
@@ -359,7 +421,10 @@ void dep_history_weights(const dep_history *history, const dep_profile *profile,
 void dep_history_predict(dep_history *history, const dep_profile *profile,
                          const double *weights, double *out);
 void dep_history_learn(dep_history *history, double h, const double *guess, const double *found);
-void dep_weights(const double *y0, const double *y1, int n, double tol, double *scale);
+/* scale = tol (floors + max(|y0|, |y1|)) componentwise: what an error of each is measured
+   against (floors: the stepper's, the sizes of the coordinates, rates and works). */
+void dep_weights(const double *y0, const double *y1, int n, double tol, const double *floors,
+                 double *scale);
 double dep_rms(const double *x, const double *scale, int n);
 int dep_divided_difference(const dep_profile *profile, const dep_history *history,
                            const double *end, double *d, double *scratch);
@@ -377,8 +442,8 @@ double dep_step_error(const dep_step_errors *errors);
 double dep_step_factor(const dep_step_errors *errors, double err_previous, int accepted);
 double dep_convergence_factor(const dep_pass_report *report);
 double dep_initial_step(dep_rhs_function rhs, void *context, double t0, const double *y0,
-                        const double *f0, int n, int order, double tol, double span,
-                        double *scratch);
+                        const double *f0, int n, int order, double tol,
+                        const double *floors, double span, double *scratch);
 
 /* ---- events.c: zero crossings located on the dense output ------------------------------ */
 
@@ -464,6 +529,9 @@ typedef struct dep_stepper {
     dep_multipliers mp;
     int nq, ny, capacity;
     double tol, constraint_tol;
+    /* ny: the absolute part of each component's weight, tol (floor + |y|): the size of each
+       coordinate (system->scales) for it and its rate, energy_scale for the works */
+    double *floors;
     long long rhs_evaluations, integrations, jacobian_ids;
     dep_measurement slots[6], *final_position;
     /* the step being taken */

@@ -16,7 +16,8 @@ typedef struct acceleration_pass {
     long long jacobian_id;
 } acceleration_pass;
 
-static void measure_acceleration(void *context, const double *lam, dep_measurement *out)
+static void measure_acceleration(void *context, const double *lam, int sized,
+                                 dep_measurement *out)
 {
     acceleration_pass *a = context;
     dep_acceleration_work *w = a->w;
@@ -30,13 +31,16 @@ static void measure_acceleration(void *context, const double *lam, dep_measureme
     } else {
         dep_mass_solve(&w->system->mass, w->jt, out->x);
     }
-    double scale = dep_cs_times_scale(w->cs, a->J, out->x, out->v);
+    dep_cs_times(w->cs, a->J, out->x, out->v);
     for (int i = 0; i < nc; ++i) {
         out->v[i] = w->gamma[i] - out->v[i];
     }
     out->J = a->J;
     out->jacobian_id = a->jacobian_id;
-    out->scale = fmax(dep_max_abs(w->gamma, nc), scale);
+    dep_cs_sizes(w->cs, a->J, out->x, out->size);
+    if (sized) {
+        dep_pass_magnitude(w->mp, a->J, nc, lam, 1.0, out->x, w->gamma, out->magnitude);
+    }
 }
 
 /* lambda (in: the guess) and qdd at (q, qd, t) from (1) and (2c), J = Phi_q there. */
@@ -82,7 +86,8 @@ typedef struct projection {
     long long jacobian_id;
 } projection;
 
-static void measure_projection(void *context, const double *mu, dep_measurement *out)
+static void measure_projection(void *context, const double *mu, int sized,
+                               dep_measurement *out)
 {
     projection *pr = context;
     int nq = pr->mp->nq, nc = pr->nc;
@@ -90,25 +95,30 @@ static void measure_projection(void *context, const double *mu, dep_measurement 
     dep_multipliers_transpose_times(pr->mp, pr->J, nc, mu, column);
     dep_multipliers_apply(pr->mp, column, solved);
     memset(column, 0, (size_t)nq * sizeof *column);
-    for (int j = 0; j < nq; ++j) { /* qd+, and the size of what it cancels */
+    for (int j = 0; j < nq; ++j) {
         out->x[j] = pr->qd[j] - solved[j];
-        column[j] = fabs(pr->qd[j]) + fabs(solved[j]);
     }
-    out->scale = dep_cs_times_scale(pr->mp->cs, pr->J, column, out->v);
-    memset(column, 0, (size_t)nq * sizeof *column);
     dep_cs_times(pr->mp->cs, pr->J, out->x, out->v);
     for (int a = 0; a < nc; ++a) {
         out->v[a] = -out->v[a] - pr->phi_t[a];
     }
     out->J = pr->J;
     out->jacobian_id = pr->jacobian_id;
+    dep_cs_sizes(pr->mp->cs, pr->J, out->x, out->size);
+    if (sized) { /* qd+ is the difference of qd and M^-1 J^T mu: an impact that locks the
+                    whole mechanism leaves it near nought (the accordion's last latch) */
+        for (int j = 0; j < nq; ++j) {
+            column[j] = fabs(pr->qd[j]) + fabs(solved[j]);
+        }
+        dep_cs_abs_times(pr->mp->cs, pr->J, column, out->magnitude);
+        for (int a = 0; a < nc; ++a) {
+            out->magnitude[a] += fabs(pr->phi_t[a]);
+        }
+    }
+    memset(column, 0, (size_t)nq * sizeof *column);
 }
 
-/* qd+ = qd - M^-1 J^T mu with J qd+ + phi_t = 0 by the iteration (6) with C = 1. The
-   limit's round-off scale is J applied to |qd| + |M^-1 J^T mu|, the sizes qd+ is the
-   difference of: an impact that locks the whole mechanism leaves qd+ near nought, and a scale
-   from qd+ alone asked J qd+ for less than the round-off of that difference (the accordion's
-   last latch at tol 1e-11). */
+/* qd+ = qd - M^-1 J^T mu with J qd+ + phi_t = 0 by the iteration (6) with C = 1. */
 int dep_project_velocity(dep_multipliers *mp, const double *J, long long jacobian_id, int nc,
                          const double *qd, const double *phi_t, double tol, double *qd_new,
                          double *mu, dep_measurement *slots[2], dep_pass_report *report,

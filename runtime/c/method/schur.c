@@ -66,7 +66,7 @@ int dep_multipliers_init(dep_multipliers *mp, const dep_mass *mass,
     mp->first = dep_bytes(arena, nc * sizeof *mp->first);
     mp->offset = dep_bytes(arena, (nc + 1) * sizeof *mp->offset);
     mp->envelope = (dep_envelope){0, mp->first, mp->offset, mp->S, mp->L,
-                                  dep_doubles(arena, nc + 1)};
+                                  dep_doubles(arena, nc + 1), 0, 1.0, -1};
     mp->column_start = dep_bytes(arena, (nq + 1) * sizeof *mp->column_start);
     mp->schur_J = dep_doubles(arena, DEP_JACOBIAN_SIZE(cs->system->model));
     for (int k = 0; k < DEP_SCHUR_KEPT; ++k) {
@@ -90,6 +90,13 @@ int dep_multipliers_init(dep_multipliers *mp, const dep_mass *mass,
     for (size_t i = 0; i < sizeof vectors / sizeof *vectors; ++i) {
         *vectors[i] = dep_doubles(arena, nc);
     }
+    mp->secant_u = dep_doubles(arena, DEP_SECANTS * nc);
+    mp->secant_w = dep_doubles(arena, DEP_SECANTS * nc);
+    mp->secant_y = dep_doubles(arena, nc);
+    mp->nulls = dep_doubles(arena, DEP_NULL_MAX * nc);
+    mp->range = dep_doubles(arena, nc);
+    mp->nulls_id = -1;
+    mp->rank_drop = DEP_RANK_DROP;
     return arena->failed ? DEP_MEMORY_ERROR : DEP_OK;
 }
 
@@ -145,28 +152,37 @@ void dep_multipliers_transpose_times(const dep_multipliers *mp, const double *J,
     }
 }
 
-/* The Cholesky factor of the explicit S (lower, in mp->L); 0 when S is not positive definite
-   to working precision (conjugate gradients then handle a consistent singular system). */
+/* The Cholesky factor of the explicit S (lower, in mp->L), semi-definite: a row whose pivot is
+   at most DEP_RANK_DROP of its diagonal depends on the rows before it and is dropped (its
+   column of L nought; mp->schur_dropped counts them); the smallest pivot kept relative to its
+   diagonal and its row into mp->schur_min_pivot, schur_min_row. 0 when a pivot is negative
+   or NaN (conjugate gradients then handle a consistent singular system). */
 static int factor_schur(dep_multipliers *mp, int nc)
 {
     const double *S = mp->S;
-    double *L = mp->L, largest = 0.0;
-    for (int a = 0; a < nc; ++a) {
-        largest = fmax(largest, S[a * nc + a]);
-    }
+    double *L = mp->L;
+    mp->schur_dropped = 0;
+    mp->schur_min_pivot = 1.0;
+    mp->schur_min_row = -1;
     for (int j = 0; j < nc; ++j) {
         for (int i = j; i < nc; ++i) {
             double sum = S[i * nc + j];
             for (int k = 0; k < j; ++k) {
                 sum -= L[i * nc + k] * L[j * nc + k];
             }
-            if (i == j) {
-                if (!(sum > 1e-12 * largest)) {
-                    return 0;
-                }
-                L[j * nc + j] = sqrt(sum);
+            if (i > j) {
+                L[i * nc + j] = L[j * nc + j] != 0.0 ? sum / L[j * nc + j] : 0.0;
+            } else if (!isnan(sum) && sum <= DEP_RANK_DROP * S[j * nc + j]) {
+                L[j * nc + j] = 0.0; /* row j depends on the rows before it: dropped */
+                mp->schur_dropped++;
+            } else if (!(sum > 0.0)) {
+                return 0;
             } else {
-                L[i * nc + j] = sum / L[j * nc + j];
+                L[j * nc + j] = sqrt(sum);
+                if (sum < mp->schur_min_pivot * S[j * nc + j]) {
+                    mp->schur_min_pivot = sum / S[j * nc + j];
+                    mp->schur_min_row = j;
+                }
             }
         }
     }
@@ -267,20 +283,22 @@ static int schur_serves(dep_multipliers *mp, const double *J, long long id, int 
     if (mp->schur_nc != nc || mp->schur_mobility != mp->mobility_id) {
         return 0;
     }
-    if (mp->schur_id == id) {
+    if (mp->schur_id == id && (allowed > 0.0 || mp->schur_exact)) {
         return 1;
     }
     if (mp->schur_id < 0 || !mp->schur_factored || mp->schur_pattern != mp->cs->pattern) {
         return 0;
     }
-    int nnz = mp->cs->row_start[nc];
+    int nnz = mp->cs->row_start[nc], exact = 1;
     double bound = allowed * mp->schur_J_largest;
     for (int k = 0; k < nnz; ++k) {
         if (!(fabs(J[k] - mp->schur_J[k]) <= bound)) { /* (NaN included) */
             return 0;
         }
+        exact = exact && J[k] == mp->schur_J[k];
     }
     mp->schur_id = id;
+    mp->schur_exact = exact;
     return 1;
 }
 
@@ -321,7 +339,11 @@ static void keep_factor(dep_multipliers *mp)
     kept->mobility = mp->schur_mobility;
     kept->pattern = mp->schur_pattern;
     kept->nc = nc;
+    kept->exact = mp->schur_exact;
     kept->J_largest = mp->schur_J_largest;
+    kept->dropped = mp->schur_dropped;
+    kept->min_row = mp->schur_min_row;
+    kept->min_pivot = mp->schur_min_pivot;
 }
 
 /* A kept factor of this mobility that serves J (as schur_serves) back in the cache; 1 if so. */
@@ -334,12 +356,14 @@ static int take_factor(dep_multipliers *mp, const double *J, long long id, int n
             || kept->pattern != mp->cs->pattern) {
             continue;
         }
-        int nnz = mp->cs->row_start[nc], serves = kept->id == id;
+        int nnz = mp->cs->row_start[nc], exact = kept->id == id && kept->exact;
+        int serves = kept->id == id && (allowed > 0.0 || exact);
         double bound = allowed * kept->J_largest;
         for (int e = 0; !serves && e < nnz; ++e) {
             if (!(fabs(J[e] - kept->J[e]) <= bound)) {
                 break;
             }
+            exact = e == 0 ? J[e] == kept->J[e] : exact && J[e] == kept->J[e];
             serves = e == nnz - 1;
         }
         if (!serves || !schur_room(mp, (size_t)nc * (size_t)nc, 0)) {
@@ -352,6 +376,10 @@ static int take_factor(dep_multipliers *mp, const double *J, long long id, int n
         mp->schur_pattern = kept->pattern;
         mp->schur_nc = nc;
         mp->schur_J_largest = kept->J_largest;
+        mp->schur_exact = exact;
+        mp->schur_dropped = kept->dropped;
+        mp->schur_min_row = kept->min_row;
+        mp->schur_min_pivot = kept->min_pivot;
         mp->schur_explicit = mp->schur_factored = 1;
         mp->schur_envelope = 0;
         return 1;
@@ -370,6 +398,7 @@ void dep_schur_form(dep_multipliers *mp, const double *J, long long id, int nc, 
         return;
     }
     mp->schur_id = id;
+    mp->schur_exact = 1;
     mp->schur_pattern = mp->cs->pattern;
     memcpy(mp->schur_J, J, (size_t)mp->cs->row_start[nc] * sizeof *J);
     mp->schur_J_largest = dep_max_abs(J, mp->cs->row_start[nc]);
@@ -378,11 +407,18 @@ void dep_schur_form(dep_multipliers *mp, const double *J, long long id, int nc, 
     mp->schur_envelope = mp->mass->inverse_diagonal != NULL && mp->mobility == NULL;
     if (mp->schur_envelope && envelope_schur(mp, J, nc)) {
         mp->schur_explicit = 1;
-        mp->schur_factored = dep_envelope_factor(&mp->envelope);
+        mp->schur_factored = dep_envelope_factor(&mp->envelope, DEP_RANK_DROP);
+        mp->schur_dropped = mp->envelope.dropped;
+        mp->schur_min_pivot = mp->envelope.min_pivot;
+        mp->schur_min_row = mp->envelope.min_row >= 0 && mp->permuted
+                            ? mp->order[mp->envelope.min_row] : mp->envelope.min_row;
         mp->factorizations += mp->schur_factored;
         return;
     }
     mp->schur_envelope = 0; /* (out of memory for the envelope: conjugate gradients) */
+    mp->schur_dropped = 0;
+    mp->schur_min_pivot = 1.0;
+    mp->schur_min_row = -1;
     mp->schur_explicit = nc < EXPLICIT_BELOW && schur_room(mp, (size_t)nc * (size_t)nc, nc);
     const int *row_start = mp->cs->row_start, *cols = mp->cs->row_cols;
     for (int b = 0; b < nc; ++b) { /* row b of (G J^T)^T; kept only to form S */
@@ -526,4 +562,84 @@ static int pcg(dep_multipliers *mp, const double *J, int n, const double *b, lon
     }
     *iterations += maxiter;
     return dot(r, r, n) <= target2;
+}
+
+/* The null vector of the factor for its dropped row j (in the factor's order): n_j = 1, the
+   later rows 0, and L_<j^T n_<j = -L_j,<j^T by columns of the rows before j, so that
+   L^T n = 0 and S n = L L^T n = 0. row(i, k): L_ik for k in first..i. */
+static void null_vector(const dep_multipliers *mp, int nc, int j, double *n)
+{
+    const dep_envelope *e = &mp->envelope;
+    int envelope = mp->schur_envelope;
+    memset(n, 0, (size_t)nc * sizeof *n);
+    int first_j = envelope ? e->first[j] : 0;
+    for (int k = first_j; k < j; ++k) {
+        n[k] = -(envelope ? DEP_ENVELOPE_AT(e, e->L, j, k) : mp->L[j * nc + k]);
+    }
+    for (int i = j - 1; i >= 0; --i) {
+        double pivot = envelope ? DEP_ENVELOPE_AT(e, e->L, i, i) : mp->L[i * nc + i];
+        n[i] = pivot != 0.0 ? n[i] / pivot : 0.0;
+        int first_i = envelope ? e->first[i] : 0;
+        for (int k = first_i; k < i; ++k) {
+            n[k] -= (envelope ? DEP_ENVELOPE_AT(e, e->L, i, k) : mp->L[i * nc + k]) * n[i];
+        }
+    }
+    n[j] = 1.0;
+}
+
+int dep_schur_nulls(dep_multipliers *mp, int nc)
+{
+    if (mp->nulls_id == mp->schur_id && mp->schur_id >= 0) {
+        return mp->n_nulls;
+    }
+    mp->nulls_id = mp->schur_id;
+    mp->n_nulls = 0;
+    if (!mp->schur_factored || !mp->schur_explicit) {
+        return 0;
+    }
+    const dep_envelope *e = &mp->envelope;
+    long long iterations = 0;
+    for (int j = 0; j < nc && mp->n_nulls < DEP_NULL_MAX; ++j) {
+        double pivot = mp->schur_envelope ? DEP_ENVELOPE_AT(e, e->L, j, j) : mp->L[j * nc + j];
+        double diagonal = mp->schur_envelope ? DEP_ENVELOPE_AT(e, e->A, j, j) : mp->S[j * nc + j];
+        if (pivot != 0.0 && !(pivot * pivot <= mp->rank_drop * diagonal)) {
+            continue;
+        }
+        double *n = mp->nulls + (size_t)mp->n_nulls * (size_t)nc, *own = mp->permuted_out;
+        null_vector(mp, nc, j, mp->schur_envelope && mp->permuted ? own : n);
+        if (mp->schur_envelope && mp->permuted) { /* to the rows' own order */
+            for (int a = 0; a < nc; ++a) {
+                n[a] = own[mp->rank[a]];
+            }
+        }
+        if (pivot != 0.0) { /* a weak row: S n ~ pivot n; one inverse iteration makes n the
+                               eigenvector of S's smallest eigenvalue to about rank_drop */
+            dep_schur_solve_formed(mp, NULL, nc, n, n, &iterations);
+        }
+        for (int pass = 0; pass < 2; ++pass) { /* orthonormal: Gram-Schmidt, twice */
+            for (int k = 0; k < mp->n_nulls; ++k) {
+                const double *m = mp->nulls + (size_t)k * (size_t)nc;
+                double dot = 0.0;
+                for (int a = 0; a < nc; ++a) {
+                    dot += m[a] * n[a];
+                }
+                for (int a = 0; a < nc; ++a) {
+                    n[a] -= dot * m[a];
+                }
+            }
+            double norm = 0.0;
+            for (int a = 0; a < nc; ++a) {
+                norm += n[a] * n[a];
+            }
+            norm = sqrt(norm);
+            if (!(norm > 0.0) || !isfinite(norm)) {
+                break;
+            }
+            for (int a = 0; a < nc; ++a) {
+                n[a] /= norm;
+            }
+            mp->n_nulls += pass == 1;
+        }
+    }
+    return mp->n_nulls;
 }

@@ -173,8 +173,8 @@ static double linear_miss(dep_stepper *stepper, const double *lam1, const double
     }
     double sum = 0.0;
     for (int j = 0; j < nq; ++j) {
-        double a = mq[j] / (stepper->tol * (1.0 + fabs(y1[j])));
-        double b = mv[j] / (stepper->tol * (1.0 + fabs(y1[nq + j])));
+        double a = mq[j] / (stepper->tol * (stepper->floors[j] + fabs(y1[j])));
+        double b = mv[j] / (stepper->tol * (stepper->floors[nq + j] + fabs(y1[nq + j])));
         sum += a * a + b * b;
     }
     return sqrt(sum / (2 * nq));
@@ -216,9 +216,10 @@ static int correct_base(dep_stepper *stepper, const double *lam1, dep_measuremen
     }
     for (int j = 0; j < nq; ++j) { /* the moves of q and qd in tolerance units */
         double move = stepper->dq[j], rate = stepper->dqd[j];
-        double scale = stepper->tol * (1.0 + fabs(stepper->base.y1[j]));
+        double scale = stepper->tol * (stepper->floors[j] + fabs(stepper->base.y1[j]));
         double rate_scale = rosenbrock ? scale / stepper->h
-                                       : stepper->tol * (1.0 + fabs(stepper->base.y1[nq + j]));
+                                       : stepper->tol * (stepper->floors[nq + j]
+                                                         + fabs(stepper->base.y1[nq + j]));
         sum += (move / scale) * (move / scale) + (rate / rate_scale) * (rate / rate_scale);
     }
     double s2 = stepper->base.stiffness * stepper->base.stiffness, limit = ROSENBROCK_MOVE;
@@ -256,7 +257,8 @@ static int correct_base(dep_stepper *stepper, const double *lam1, dep_measuremen
 
 /* The position pass's measurement for a trial lambda_{i+1}: the step's end by correcting the
    last integration when the change is small, else by integrating again. */
-static void measure_position(void *context, const double *lam1, dep_measurement *out)
+static void measure_position(void *context, const double *lam1, int sized,
+                             dep_measurement *out)
 {
     dep_stepper *stepper = context;
     dep_constraints *cs = stepper->constraints;
@@ -273,13 +275,19 @@ static void measure_position(void *context, const double *lam1, dep_measurement 
         out->v[i] = -out->v[i];
     }
     out->J = out->J_own;
-    out->scale = dep_max_abs(q1, stepper->nq);
+    dep_cs_sizes(cs, out->J, q1, out->size);
+    if (sized) {
+        dep_pass_magnitude(&stepper->mp, out->J, cs->nc, lam1,
+                           stepper->h * stepper->h * stepper->profile.position, q1, NULL,
+                           out->magnitude);
+    }
 }
 
 /* qd_{i+1} = qd of the position pass's trajectory plus the response of qd to
    lambda - lambda_pos, Phi_q frozen at its end (DOPRI: -h velocity M^-1 J1^T (lambda -
    lambda_pos)). */
-static void measure_velocity(void *context, const double *lam1, dep_measurement *out)
+static void measure_velocity(void *context, const double *lam1, int sized,
+                             dep_measurement *out)
 {
     dep_stepper *stepper = context;
     const dep_measurement *pos = stepper->final_position;
@@ -288,12 +296,17 @@ static void measure_velocity(void *context, const double *lam1, dep_measurement 
     for (int j = 0; j < nq; ++j) {
         out->x[j] = pos->rk.y1[nq + j] + stepper->dqd[j];
     }
-    out->scale = dep_cs_times_scale(stepper->constraints, pos->J, out->x, out->v);
+    dep_cs_times(stepper->constraints, pos->J, out->x, out->v);
     for (int i = 0; i < nc; ++i) {
         out->v[i] = -out->v[i] - stepper->phi_t1[i];
     }
     out->J = pos->J;
     out->jacobian_id = pos->jacobian_id;
+    dep_cs_sizes(stepper->constraints, out->J, out->x, out->size);
+    if (sized) {
+        dep_pass_magnitude(&stepper->mp, out->J, nc, lam1, stepper->h * stepper->profile.velocity,
+                           out->x, stepper->phi_t1, out->magnitude);
+    }
 }
 
 /* The new state's work and the step's interpolant. */
@@ -353,10 +366,9 @@ static int take_step(dep_stepper *stepper, const dep_state *state, const dep_pro
     memcpy(new->lam, lam_predicted, (size_t)nc * sizeof(double));
     if (stepper->implicit) {
         if (!dep_implicit_prepare(&stepper->im, state->q, h)) {
+            memset(failure, 0, sizeof *failure);
             failure->stage = DEP_POSITION;
             failure->row = -1;
-            failure->residual = failure->scale = 0.0;
-            failure->hint[0] = '\0';
             snprintf(failure->reason, sizeof failure->reason, "the linearly implicit step's "
                      "matrix M + gamma h D + gamma^2 h^2 K is not positive definite");
             return DEP_PASS_FAILED;

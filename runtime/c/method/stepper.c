@@ -57,9 +57,17 @@ int dep_stepper_init(dep_stepper *stepper, const dep_system *system, dep_constra
     stepper->capacity = capacity;
     stepper->tol = tol;
     stepper->constraint_tol = dep_constraint_tolerance(tol);
+    stepper->floors = dep_doubles(arena, (size_t)ny);
+    if (stepper->floors == NULL) {
+        return DEP_MEMORY_ERROR;
+    }
+    for (int j = 0; j < ny; ++j) {
+        stepper->floors[j] = j < 2 * nq ? system->scales[j % nq] : system->energy_scale;
+    }
     if (dep_multipliers_init(&stepper->mp, &system->mass, cs, capacity, arena) != DEP_OK) {
         return DEP_MEMORY_ERROR;
     }
+    stepper->mp.rank_drop = DEP_RANK_WEAK;
     for (int k = 0; k < 6; ++k) { /* position (own J, trajectory), velocity, acceleration */
         if (dep_measurement_init(&stepper->slots[k], system->model, capacity, k < 2 ? ny : 0, k < 2,
                                  arena) != DEP_OK) {

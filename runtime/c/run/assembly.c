@@ -23,6 +23,9 @@
 
 #define MAX_ITERATIONS 100
 #define FIT 1e-13 /* |residual| counted as closed: FIT max(1, |q|) (round-off of a pose) */
+#define ROUNDOFF_TERMS 16 /* a computed sum of n terms is good to ROUNDOFF_TERMS n eps of
+                             the sum of their sizes (each term a few roundings) */
+#define RESTARTS 4 /* starts tried beside the tree placement's when it does not close */
 
 typedef struct assembly {
     const dep_model *m;
@@ -31,8 +34,8 @@ typedef struct assembly {
     int nq, nv, nc, nh, nf, rows;   /* rows: nc + hinges with a loop target */
     int *free, *target, *live;      /* nf free joint indices; the hinges with a target; rows */
     double *dual;                   /* nf + rows: normal_solve's D and y on the rows' side */
-    double *v, *trial, *vd, *angles, *rates, *q, *unit, *column, *product, *J, *H, *A, *N, *F,
-        *g, *step, *theta;
+    double *v, *start, *best, *trial, *vd, *angles, *rates, *q, *unit, *column, *product, *J,
+        *H, *A, *N, *F, *g, *step, *theta;
 } assembly;
 
 /* d theta / d q of the k-th targeted hinge times x (nq), from the model's values in H. */
@@ -277,6 +280,18 @@ static int record(assembly *x, dep_run *run)
     return dep_run_add_record(run, "assembly", DEP_RECORD_ASSEMBLY, -1, 0.0, data, n);
 }
 
+/* r = A step - b over the rows (the rates' residual with x->step as the free rates). */
+static void rate_residual(const assembly *x, const double *b, double *r)
+{
+    for (int i = 0; i < x->rows; ++i) {
+        double sum = -b[i];
+        for (int c = 0; c < x->nf; ++c) {
+            sum += x->A[(size_t)i * x->nf + c] * x->step[c];
+        }
+        r[i] = sum;
+    }
+}
+
 /* The velocities: least squares of minimum norm for the free rates (every tree joint whose
    rate was not given), the held rates fixed. */
 static int assemble_rates(assembly *x, dep_run *run)
@@ -305,41 +320,47 @@ static int assemble_rates(assembly *x, dep_run *run)
         b[i] = i < x->nc ? -b[i] - x->product[i]
                          : x->rates[x->target[i - x->nc]] - hinge_times(x, i - x->nc, qd);
     }
-    if (x->nf > 0) {
+    if (x->nf > 0) { /* the least squares, then one correction from its own residual */
         normal_solve(x, b, 0.0, x->step);
+        rate_residual(x, b, x->g);
+        normal_solve(x, x->g, 0.0, x->unit);
+        for (int c = 0; c < x->nf; ++c) {
+            x->step[c] -= x->unit[c];
+            x->unit[c] = 0.0;
+        }
         for (int c = 0; c < x->nf; ++c) {
             x->vd[x->free[c]] = x->step[c];
         }
     }
-    double gap = 0.0, scale = 1.0;
+    /* A row is closed to within 1e-3 tol of the rates' size, or to the round-off of computing
+       it: its nf + 1 terms, each good to a few eps of its own size. */
+    double gap = 0.0, scale = 1.0, worst = 0.0;
+    rate_residual(x, b, x->g);
     for (int i = 0; i < x->rows; ++i) {
-        double sum = -b[i];
-        for (int c = 0; c < x->nf; ++c) {
-            sum += x->A[(size_t)i * x->nf + c] * x->step[c];
-        }
-        x->F[i] = sum;
-        gap = fmax(gap, fabs(sum));
         scale = fmax(scale, fabs(b[i]));
     }
-    if (gap > 1e-3 * run->settings.tol * scale) {
+    for (int i = 0; i < x->rows; ++i) {
+        double size = fabs(b[i]);
+        for (int c = 0; c < x->nf; ++c) {
+            size += fabs(x->A[(size_t)i * x->nf + c] * x->step[c]);
+        }
+        double limit = fmax(1e-3 * run->settings.tol * scale,
+                            ROUNDOFF_TERMS * (x->nf + 1) * DEP_EPS * size);
+        gap = fmax(gap, fabs(x->g[i]));
+        worst = fmax(worst, fabs(x->g[i]) / limit);
+    }
+    memcpy(x->F, x->g, (size_t)x->rows * sizeof *x->F); /* for the message's worst row */
+    if (worst > 1.0) {
         return fail(x, run, 1, gap);
     }
     return DEP_OK;
 }
 
-/* The free values by damped Gauss-Newton from the tree placement. */
-static int assemble_values(assembly *x, dep_run *run)
+/* Damped Gauss-Newton on the free values from x->v; returns the residual it ends at. */
+static double gauss_newton(assembly *x, double size)
 {
-    const dep_model *m = x->m;
-    double damping = 1e-3, size = 1.0;
-    double error = residual(x, x->v, 1);
-    for (int j = 0; j < x->nq; ++j) {
-        size = fmax(size, fabs(x->q[j]));
-    }
+    double damping = 1e-3, error = residual(x, x->v, 1);
     for (int iteration = 0; iteration < MAX_ITERATIONS && error > FIT * size; ++iteration) {
-        if (x->nf == 0) {
-            break;
-        }
         for (int i = 0; i < x->rows; ++i) {
             x->g[i] = -x->F[i];
         }
@@ -364,11 +385,40 @@ static int assemble_values(assembly *x, dep_run *run)
         }
         error = residual(x, x->v, 1);
     }
-    error = residual(x, x->v, 0);
-    if (!(error <= 1e-3 * run->settings.tol * size)) {
+    return residual(x, x->v, 0);
+}
+
+/* The free values: Gauss-Newton from the tree placement, closed to 1e-3 tol of the pose's
+   size or to its round-off (FIT). A placement at a stationary point of the residual (a
+   four-bar given exactly straight: no first-order move closes it) stops where it starts;
+   the search then starts again from the free values turned by 0.01, 0.04, 0.09, 0.16 (rad,
+   or m for a slider) in alternating senses, and keeps the best closure. */
+static int assemble_values(assembly *x, dep_run *run)
+{
+    double size = 1.0, *start = x->start, *best = x->best;
+    residual(x, x->v, 0);
+    for (int j = 0; j < x->nq; ++j) {
+        size = fmax(size, fabs(x->q[j]));
+    }
+    double limit = fmax(1e-3 * run->settings.tol, FIT) * size;
+    memcpy(start, x->v, (size_t)x->nv * sizeof *start);
+    double error = x->nf > 0 ? gauss_newton(x, size) : residual(x, x->v, 0);
+    for (int restart = 1; restart <= RESTARTS && x->nf > 0 && !(error <= limit); ++restart) {
+        double best_error = error;
+        memcpy(best, x->v, (size_t)x->nv * sizeof *best);
+        memcpy(x->v, start, (size_t)x->nv * sizeof *x->v);
+        for (int c = 0; c < x->nf; ++c) {
+            x->v[x->free[c]] += 0.01 * restart * restart * ((c + restart) % 2 ? 1.0 : -1.0);
+        }
+        error = gauss_newton(x, size);
+        if (!(error < best_error)) {
+            memcpy(x->v, best, (size_t)x->nv * sizeof *x->v);
+            error = residual(x, x->v, 0);
+        }
+    }
+    if (!(error <= limit)) {
         return fail(x, run, 0, error);
     }
-    (void)m;
     return DEP_OK;
 }
 
@@ -406,9 +456,8 @@ static int closed(assembly *x, const double *q, const double *qd)
 int dep_run_assemble(dep_run *run, double *q, double *qd)
 {
     const dep_model *m = run->model;
-    assembly x = {m, run->p, &run->cs, m->nq, m->nv, run->cs.nc, m->nh, 0, 0,
-                  NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL,
-                  NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL};
+    assembly x = {.m = m, .p = run->p, .cs = &run->cs, .nq = m->nq, .nv = m->nv,
+                  .nc = run->cs.nc, .nh = m->nh};
     dep_arena *arena = &run->arena;
     size_t nv = (size_t)m->nv, nq = (size_t)m->nq, rows = (size_t)(x.nc + m->nh), nfree = 0;
     for (int k = 0; k < m->nv; ++k) {
@@ -419,6 +468,8 @@ int dep_run_assemble(dep_run *run, double *q, double *qd)
     x.live = dep_bytes(arena, (rows + 1) * sizeof *x.live);
     x.dual = dep_doubles(arena, nv + rows + 1);
     x.v = dep_doubles(arena, nv + 1);
+    x.start = dep_doubles(arena, nv + 1);
+    x.best = dep_doubles(arena, nv + 1);
     x.trial = dep_doubles(arena, nv + nq + 1);
     x.vd = dep_doubles(arena, nv + 1);
     x.angles = dep_doubles(arena, (size_t)m->nh + 1);

@@ -11,29 +11,61 @@
 
 /* ---- errors ----------------------------------------------------------------------------- */
 
-/* _solver_error: a pass failure as the SolverError the user sees. */
+/* _solver_error: a pass failure as the SolverError the user sees, with its cause
+   (method.h, dep_failure_kind) and what helps. */
 int dep_run_pass_error(dep_run *run, const dep_failure *failure, double t)
 {
-    char joint[DEP_NAME_MAX + 8], what[400], hint[400];
+    char joint[DEP_NAME_MAX + 8], weak[DEP_NAME_MAX + 8], what[800], hint[700];
+    const char *stage = dep_stage_names[failure->stage];
     if (failure->row < 0) { /* not a constraint row: the step itself */
-        return dep_solver_error(run->error, 1, t, dep_stage_names[failure->stage], NULL, NULL,
-                                0, 0.0, failure->reason, failure->hint[0] != '\0'
-                                ? failure->hint : "the state may no longer be finite; "
-                                "check the beams' properties, or try a tighter tol");
+        return dep_solver_error(run->error, 1, t, stage, NULL, NULL, 0, 0.0, failure->reason,
+                                failure->hint[0] != '\0' ? failure->hint
+                                : "the state may no longer be finite; check the beams' "
+                                "properties, or try a tighter tol");
     }
     dep_cs_describe(&run->cs, failure->row, joint, sizeof joint);
-    if (failure->residual <= 1e3 * DEP_EPS * fmax(1.0, failure->scale)) {
-        snprintf(hint, sizeof hint, "the residual is at the level of round-off: tol is tighter "
-                 "than double precision reaches here; try tol >= %.0e", 10 * run->settings.tol);
-    } else {
-        snprintf(hint, sizeof hint, "Phi_q may be singular here (a dead point, a joint at the "
-                 "end of its travel) or constraints redundant and inconsistent; check %s and "
-                 "the joints in its loop, or try a looser tol", joint);
+    snprintf(weak, sizeof weak, "%s", joint);
+    if (failure->weak_row >= 0 && failure->weak_row < run->cs.nc) {
+        dep_cs_describe(&run->cs, failure->weak_row, weak, sizeof weak);
     }
-    snprintf(what, sizeof what, "%s; residual %.3g", failure->reason, failure->residual);
-    return dep_solver_error(run->error, 1, t, dep_stage_names[failure->stage],
-                            run->cs.row_names[failure->row], joint, 1, failure->residual, what,
-                            hint);
+    int n = snprintf(what, sizeof what, "%s; residual %.3g, limit %.3g", failure->reason,
+                     failure->residual, failure->limit);
+    if (failure->roundoff > 0.0 && n > 0 && (size_t)n < sizeof what) {
+        n += snprintf(what + n, sizeof what - (size_t)n, ", round-off %.2g", failure->roundoff);
+    }
+    size_t used = n > 0 && (size_t)n < sizeof what ? (size_t)n : sizeof what - 1;
+    switch (failure->kind) {
+    case DEP_FAILED_NONFINITE:
+        snprintf(hint, sizeof hint, "check the model's masses, stiffnesses and initial rates at "
+                 "this time (a force that grows without bound), or try a tighter tol");
+        break;
+    case DEP_FAILED_INCONSISTENT:
+        snprintf(what + used, sizeof what - used, ": the constraints are inconsistent here, "
+                 "%d of the %d rows depend on the others (rank %d) and they cannot all hold",
+                 failure->rows - failure->rank, failure->rows, failure->rank);
+        snprintf(hint, sizeof hint, "check the lengths and points of the loop through %s and "
+                 "%s: a redundant joint must agree with the others exactly", joint, weak);
+        break;
+    case DEP_FAILED_CONDITION:
+        snprintf(what + used, sizeof what - used, ": the rows are ill-conditioned here, the "
+                 "condition of Phi_q M^-1 Phi_q^T is about %.1e (its weakest row at %s)",
+                 failure->condition, weak);
+        snprintf(hint, sizeof hint, "the mechanism is at or near a singular position (links "
+                 "in line, a dead point) where its motion is not determined to tol; a change "
+                 "of tol does not help. Check the geometry near %s and %s, or give a hinge "
+                 "there a little damping", joint, weak);
+        break;
+    default:
+        snprintf(what + used, sizeof what - used, ": the correction does not converge at "
+                 "steps down to %.2g s (condition of Phi_q M^-1 Phi_q^T about %.1e)",
+                 run->h_min, failure->condition);
+        snprintf(hint, sizeof hint, "the constraint forces change faster than any step "
+                 "resolves (an impact or a very stiff element acting on %s at this time); "
+                 "check the model there", joint);
+        break;
+    }
+    return dep_solver_error(run->error, 1, t, stage, run->cs.row_names[failure->row], joint,
+                            1, failure->residual, what, hint);
 }
 
 /* ---- states ------------------------------------------------------------------------------ */

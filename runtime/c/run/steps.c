@@ -74,7 +74,7 @@ double dep_run_first_step(dep_run *run)
     dep_stepper_derivative(&run->stepper, s, run->dy);
     return dep_initial_step(dep_stepper_rhs, &run->stepper, s->t, run->y, run->dy, run->ny,
                             run->stepper.implicit ? 3 : 5, run->settings.tol,
-                            run->t_stop - s->t, run->scratch);
+                            run->stepper.floors, run->t_stop - s->t, run->scratch);
 }
 
 /* The ODE method's error estimate less what the passes remove: its position and velocity
@@ -213,7 +213,7 @@ static void step_errors(dep_run *run, const dep_outcome *outcome, dep_step_error
     const dep_rk_step *rk = outcome->rk;
     double *scale = run->y;
     int nq = run->nq;
-    dep_weights(rk->y0, rk->y1, run->ny, run->settings.tol, scale);
+    dep_weights(rk->y0, rk->y1, run->ny, run->settings.tol, run->stepper.floors, scale);
     tangential_error(run, outcome);
     if (rk->method == DEP_ROSENBROCK) {
         /* positions and work: a velocity error shows in the positions a step later, and
@@ -250,6 +250,32 @@ static const char *moving_most(const dep_run *run, const double *qd)
     return run->model->coordinate_names[best];
 }
 
+/* The most steps a run may take, counting the rejected and retried ones (settings.max_steps,
+   0: DEP_MAX_STEPS). */
+static double step_limit(const dep_run *run)
+{
+    return run->settings.max_steps > 0 ? run->settings.max_steps : DEP_MAX_STEPS;
+}
+
+static long long attempts(const dep_run *run)
+{
+    return run->tally.accepted + run->tally.rejected + run->tally.failed;
+}
+
+/* A run whose steps are all rejected or retried, however small, stops at max_steps too. */
+static int attempts_spent(dep_run *run, double h)
+{
+    if ((double)attempts(run) < step_limit(run)) {
+        return DEP_OK;
+    }
+    char what[400];
+    snprintf(what, sizeof what, "max_steps = %.0f steps taken (%lld accepted, %lld rejected, "
+             "%lld retried), the last tried at %.3g s", step_limit(run), run->tally.accepted,
+             run->tally.rejected, run->tally.failed, h);
+    return dep_solver_error(run->error, 1, run->state.t, "step size", NULL, NULL, 0, 0.0, what,
+                            "raise max_steps (--max-steps), or shorten t_end");
+}
+
 /* After an accepted step of size h: a model with beams whose step a stiff mode holds at
    DOPRI's stability bound (Hairer's test, STIFF_STEPS steps with h |lambda| > STIFF_BOUND)
    goes on with the linearly implicit step (method/rosenbrock.c, docs/method.md, 10).
@@ -262,9 +288,9 @@ static int step_budget(dep_run *run, double h)
 {
     const dep_rk_step *rk = run->outcome.rk;
     const dep_state *s = &run->outcome.state;
-    double limit = run->settings.max_steps > 0 ? run->settings.max_steps : DEP_MAX_STEPS;
+    double limit = step_limit(run);
     double end = isfinite(run->settings.t_end) ? run->settings.t_end : run->t_stop;
-    double taken = (double)run->tally.accepted, span = end - s->t;
+    double taken = (double)attempts(run), span = end - s->t;
     double left = span / h;
     if (rk->stiffness > STIFF_BOUND) {
         run->stiff_steps++;
@@ -328,8 +354,10 @@ static int step_budget(dep_run *run, double h)
                  "model's stiffnesses and initial rates, shorten t_end, or raise max_steps "
                  "(--max-steps)");
     } else {
-        snprintf(what, sizeof what, "max_steps = %.0f steps taken, with %.4g s left at steps "
-                 "of about %.3g s (%s moving most)", limit, span, h, moving_most(run, s->qd));
+        snprintf(what, sizeof what, "max_steps = %.0f steps taken (%lld accepted, %lld rejected, "
+                 "%lld retried), with %.4g s left at steps of about %.3g s (%s moving most)",
+                 limit, run->tally.accepted, run->tally.rejected, run->tally.failed, span, h,
+                 moving_most(run, s->qd));
         snprintf(hint, sizeof hint, "raise max_steps (--max-steps), or shorten t_end");
     }
     return dep_solver_error(run->error, 1, s->t, "step size", NULL, NULL, 0, 0.0, what, hint);
@@ -366,7 +394,11 @@ int dep_run_advance(dep_run *run, double *h)
         double proposed = *h; /* before a cut to t_stop: what the next step starts from */
         int cut = *h >= remaining - run->h_min;
         *h = cut ? remaining : *h;
-        int status = dep_run_step(run, *h, &run->outcome, &failure);
+        int status = attempts_spent(run, *h);
+        if (status != DEP_OK) {
+            return status;
+        }
+        status = dep_run_step(run, *h, &run->outcome, &failure);
         if (status == DEP_PASS_FAILED) {
             TRACE("step t=%.17g h=%.17g failed %s row %d\n", run->state.t, *h,
                   dep_stage_names[failure.stage], failure.row);

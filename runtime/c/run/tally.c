@@ -14,9 +14,8 @@ void dep_tally_init(dep_tally *tally)
 /* Residual and CG work of a pass outside a step (initial state, after events). */
 void dep_tally_observe(dep_tally *tally, const dep_pass_report *report)
 {
-    double last = report->errors[report->n_errors - 1];
     tally->cg_iterations += report->cg_iterations;
-    tally->residuals[report->stage] = fmax(tally->residuals[report->stage], last);
+    tally->residuals[report->stage] = fmax(tally->residuals[report->stage], report->residual);
 }
 
 /* An accepted step of size h (s) with one report per pass. */

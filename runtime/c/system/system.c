@@ -2,6 +2,7 @@
  * hinges (hinges.c), the names of its energies and dissipators, and the forces, powers and
  * energies the method sees: the generated model's plus the hinge torques of laws.c (system.h).
  */
+#include <math.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -45,6 +46,27 @@ static int name_terms(dep_system *s, dep_arena *arena)
     return DEP_OK;
 }
 
+/* Each coordinate's size (the model's coordinate_scales) and the energy of moving every
+   coordinate by its size in a second, sum_j M_jj s_j^2 (J): the sizes the errors of a
+   position, a rate, an acceleration and a work are measured against (docs/method.md, 4). */
+static int scales(dep_system *system, dep_error *error)
+{
+    const dep_model *model = system->model;
+    model->coordinate_scales(system->p, system->scales);
+    system->energy_scale = 0.0;
+    for (int j = 0; j < model->nq; ++j) {
+        double s = system->scales[j];
+        if (!(s > 0.0 && isfinite(s))) {
+            char message[DEP_NAME_MAX + 120];
+            snprintf(message, sizeof message, "the size of coordinate '%s' is %g: the model's "
+                     "members need positive, finite lengths", model->coordinate_names[j], s);
+            return dep_plain_error(error, DEP_SETTINGS_ERROR, message);
+        }
+        system->energy_scale += system->mass.entry_diagonal[j] * s * s;
+    }
+    return DEP_OK;
+}
+
 int dep_system_init(dep_system *system, const dep_model *model, const double *p,
                     int mechanics, dep_arena *arena, dep_error *error)
 {
@@ -66,6 +88,7 @@ int dep_system_init(dep_system *system, const dep_model *model, const double *p,
     system->friction = dep_doubles(arena, (size_t)nh);
     system->hinge_jacobian = dep_doubles(arena, (size_t)model->nhnz + 1);
     system->torque_force = dep_doubles(arena, (size_t)model->nq + 1);
+    system->scales = dep_doubles(arena, (size_t)model->nq + 1);
     if (arena->failed) {
         return dep_plain_error(error, DEP_MEMORY_ERROR, "out of memory");
     }
@@ -76,7 +99,11 @@ int dep_system_init(dep_system *system, const dep_model *model, const double *p,
         return dep_plain_error(error, DEP_MEMORY_ERROR, "out of memory");
     }
     model->mass_matrix(p, system->mass.values);
-    return dep_mass_factor(&system->mass, model->coordinate_names, arena, error);
+    if ((status = dep_mass_factor(&system->mass, model->coordinate_names, arena, error))
+        != DEP_OK) {
+        return status;
+    }
+    return scales(system, error);
 }
 
 /* ---- the forces, powers and energies of a run -------------------------------------------- */

@@ -76,6 +76,10 @@ typedef struct dep_system {
     /* scratch: nh, nh, nh, nhnz (at HINGE_JACOBIAN_ROWS/COLS), nq; friction: nh, each
        friction hinge's torque at `rates` (set with them by dep_hinge_torques) */
     double *angles, *rates, *tau, *hinge_jacobian, *torque_force, *friction;
+    /* nq: the size each coordinate's errors are measured against (the model's
+       coordinate_scales: its length for a position, 1 for an angle), for its rate per second
+       and its acceleration per second squared alike; and sum_j M_jj s_j^2 (J), a work's */
+    double *scales, energy_scale;
 } dep_system;
 
 /* mechanics 0: every hinge free (friction by the regularised law, no latch or stop modes). */

@@ -149,3 +149,7 @@ def hinge_gamma(q, qd, p):
 
 def hinge_properties(p):
     return np.full((1, 8), np.nan)  # no latch, stop or friction
+
+
+def coordinate_scales(p):
+    return np.array([p[0], p[0], 1.0])  # the rod's length for its position

@@ -182,3 +182,8 @@ def hinge_gamma(q, qd, p):
 
 def hinge_properties(p):
     return np.full((3, 8), np.nan)  # no latch, stop or friction
+
+
+def coordinate_scales(p):
+    length = max(p[0], p[1], np.sqrt(p[5] / p[4]))  # the largest member: r, l, the piston
+    return np.array([length, length, 1.0] * 3)
