@@ -1,7 +1,8 @@
 """Every example's CSV and summary against the ones stored in tests/golden/examples, written by
-`depsim run MODEL --target c -o MODEL.csv --summary MODEL.json` with the code before the core
-was split into its layers (runtime/c/README.md): reorganising, renaming and moving the core's
-code must not move a digit.
+`depsim run MODEL --target c -o MODEL.csv --summary MODEL.json` with the method as it stands
+(its limits scaled by the model's sizes, docs/method.md, Scale, rank and singular positions):
+reorganising, renaming and moving the core's code must not move a digit, and a change of the
+method's arithmetic stores its outputs again, with the reason in its commit.
 
 Where this machine's arithmetic is the one the files were made with (the pendulum, whose run
 exercises libm's sin and cos at every evaluation, comes out byte for byte), every file must

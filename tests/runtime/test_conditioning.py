@@ -1,0 +1,234 @@
+"""Where conditioning and rank fail (docs/method.md, Scale, rank and singular positions): chains
+of short bars, the same mechanism in metres and in millimetres, a parallelogram passing its
+singular position, a dead point the method cannot pass, and loops assembled at tolerances near
+round-off (also from a singular start).
+
+Each run is checked against something independent: the chain's energy, the scaled model's own
+run in metres, the parallelogram's one-angle equation of motion, the four-bar's closure."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+import depsim
+from depsim.runtime import SolverError, simulate
+
+
+@pytest.fixture(scope="module")
+def build(tmp_path_factory):
+    """Model text -> its compiled C module (one folder per model)."""
+    folder = tmp_path_factory.mktemp("conditioning")
+    made = {}
+
+    def get(text, name):
+        if name not in made:
+            source = folder / f"{name}.dep"
+            source.write_text(text)
+            made[name] = depsim.load(source).compile("c", out_dir=folder / name)
+        return made[name]
+
+    return get
+
+
+# -- chains of short bars ---------------------------------------------------------------------
+
+def chain(n: int) -> str:
+    """N bars of length L and mass m hinged end to end, undamped, released straight at 45 deg
+    from the vertical; outputs the kinetic and gravity energies."""
+    lines = [f'model chain{n} "a hanging chain of {n} bars"', "gravity = (0, -9.81) m/s^2",
+             "param L = 0.002 m", "param m = 0.01 kg"]
+    lines += [f"bar b{i} {{ length = L; mass = m; inertia = m * L^2 / 12 }}"
+              for i in range(1, n + 1)]
+    lines.append("hinge h1 joins ground.origin to b1.a { angle = b1 - ground + 90 deg }")
+    lines += [f"hinge h{i} joins b{i - 1}.b to b{i}.a {{ }}" for i in range(2, n + 1)]
+    lines += ["initial { h1 = 45 deg }",
+              "simulate { t_end = 0.5 s; tol = 1e-8; dt_out = 0.005 s }"]
+    return "\n".join(lines) + "\n"
+
+
+def chain_energies(result, length, mass):
+    """Kinetic and gravity energy of every row, from the bars' coordinates (x, y, phi each)."""
+    q, qd = np.asarray(result.q), np.asarray(result.qd)
+    inertia = mass * length ** 2 / 12
+    kinetic = 0.5 * (mass * (qd[:, 0::3] ** 2 + qd[:, 1::3] ** 2)
+                     + inertia * qd[:, 2::3] ** 2).sum(axis=1)
+    return kinetic, mass * 9.81 * q[:, 1::3].sum(axis=1)
+
+
+@pytest.mark.parametrize("length", [0.002, 0.1])
+def test_a_chain_of_short_bars_runs_and_keeps_its_energy(build, length):
+    """60 bars of 2 mm (the chain's fastest modes 50 times faster than with 0.1 m bars, and the
+    mass matrix's entries 2500 times smaller against the rows'): the run completes and its
+    total energy stays within 10 tol of the largest kinetic energy, as for 0.1 m bars."""
+    module = build(chain(60), "chain60")
+    tol = 1e-8
+    result = module.run(set={"L": length, "m": 1.0 / 60}, tol=tol)
+    assert result.times[-1] == pytest.approx(0.5)
+    kinetic, potential = chain_energies(result, length, 1.0 / 60)
+    energy = kinetic + potential
+    drift = np.max(np.abs(energy - energy[0])) / np.max(kinetic)
+    assert drift < 10 * tol
+
+
+# -- the same mechanism in metres and in millimetres ------------------------------------------
+
+SPRUNG = """model sprung "a four-bar on hinge springs, no gravity: every length times s"
+param s = 1
+param ground_x = 0.28 m * s
+param crank = 0.10 m * s
+param coupler = 0.25 m * s
+param rocker = 0.20 m * s
+ground { point rocker_pivot = (ground_x, 0 m) }
+bar crank_bar { length = crank; mass = 0.3 kg; inertia = 0.3 kg * crank^2 / 12 }
+bar coupler_bar { length = coupler; mass = 0.6 kg; inertia = 0.6 kg * coupler^2 / 12 }
+bar rocker_bar { length = rocker; mass = 0.5 kg; inertia = 0.5 kg * rocker^2 / 12 }
+hinge drive joins ground.origin to crank_bar.a {
+    stiffness = 0.05 N*m/rad * s^2
+    preload = 0.2 N*m * s^2
+}
+hinge knee joins crank_bar.b to coupler_bar.a { stiffness = 0.02 N*m/rad * s^2 }
+hinge elbow joins coupler_bar.b to rocker_bar.b { }
+hinge rest joins ground.rocker_pivot to rocker_bar.a { }
+initial { drive = 60 deg; drive.rate = 2 rad/s }
+simulate { t_end = 2 s; tol = 1e-8; dt_out = 0.01 s }
+output crank_angle = drive
+output rocker_angle = rocker_bar.phi
+"""
+
+
+def test_the_same_mechanism_in_millimetres_takes_the_same_steps(build):
+    """Lengths times s, inertias times s^2 and spring torques times s^2 leave the angles'
+    equations of motion unchanged. The limits scale with the lengths (the coordinates' sizes
+    and the rows' sizes), so s = 1e-3 takes the same steps. The angles agree within tol: what
+    differs is where round-off lets each pass stop inside its limit (0.01 tol of a row's
+    size per step), summed over the run's steps (measured: 0.12 tol)."""
+    module = build(SPRUNG, "sprung")
+    metres = module.run(set={"s": 1.0})
+    millimetres = module.run(set={"s": 1e-3})
+    assert millimetres.stats.accepted_steps == metres.stats.accepted_steps
+    assert millimetres.stats.rejected_steps == metres.stats.rejected_steps
+    for name in ("crank_angle", "rocker_angle"):
+        np.testing.assert_allclose(millimetres.output(name), metres.output(name),
+                                   rtol=0, atol=1e-8)
+
+
+# -- a parallelogram through its singular position --------------------------------------------
+
+PARALLELOGRAM = """model parallelogram "a parallelogram four-bar swinging through the line of its pivots"
+gravity = (0, -9.81) m/s^2
+bar c0 { length = 1 m; mass = 1 kg; inertia = 1 kg * (1 m)^2 / 12 }
+bar c1 { length = 1 m; mass = 1 kg; inertia = 1 kg * (1 m)^2 / 12 }
+bar k1 { length = 1 m; mass = 1 kg; inertia = 1 kg * (1 m)^2 / 12 }
+ground { point p1 = (1, 0) m }
+hinge g0 joins ground.origin to c0.a { }
+hinge g1 joins ground.p1 to c1.a { }
+hinge a1 joins c0.b to k1.a { }
+hinge b1 joins k1.b to c1.b { }
+initial { g0 = 10 deg; g0.rate = 0 rad/s }
+simulate { t_end = 5 s; tol = 1e-8; dt_out = 0.01 s }
+output crank = g0
+output rate = g0.rate
+"""
+
+
+def one_angle(times):
+    """The parallelogram's crank angle and rate from its one-angle equation: both cranks and
+    the coupler's centre move as the crank's tip does, the coupler does not turn, so
+    I theta'' = -dV/dtheta with I = 2 m L^2 / 3 + m L^2, V = (m g L / 2) 2 sin theta
+    + m g L sin theta; DOP853 at rtol 1e-13."""
+    m, L, g = 1.0, 1.0, 9.81
+    inertia = 2 * m * L ** 2 / 3 + m * L ** 2
+    torque = 2 * m * g * L
+
+    def rhs(t, y):
+        return [y[1], -torque * np.cos(y[0]) / inertia]
+
+    done = solve_ivp(rhs, (0, times[-1]), [np.radians(10), 0.0], method="DOP853",
+                     t_eval=times, rtol=1e-13, atol=1e-14)
+    return done.y
+
+
+def test_a_parallelogram_passes_its_singular_position(build):
+    """Every swing takes the crank through the horizontal, where the couplers and cranks lie on
+    the line of the pivots and Phi_q loses a rank: the run passes it (four times in 5 s) and
+    follows the one-angle equation. The global error of a run whose steps each hold their
+    local error within tol grows with the time run; 100 tol over these five swings."""
+    tol = 1e-8
+    result = build(PARALLELOGRAM, "parallelogram").run(tol=tol)
+    assert result.times[-1] == pytest.approx(5.0)
+    angle, rate = one_angle(result.times)
+    crossings = np.count_nonzero(np.diff(np.sign(angle)) != 0)
+    assert crossings >= 4
+    assert np.max(np.abs(result.output("crank") - angle)) < 100 * tol
+    assert np.max(np.abs(result.output("rate") - rate)) < 100 * tol * 5  # |omega| <= 5 rad/s
+
+
+# -- assembly at tolerances near round-off ----------------------------------------------------
+
+FOURBAR = """model fourbar "crank-rocker four-bar, assembled from the crank angle"
+ground {{ point rocker_pivot = (0.28 m, 0 m) }}
+bar crank_bar {{ length = 0.10 m; mass = 0.3 kg; inertia = 0.3 kg * (0.10 m)^2 / 12 }}
+bar coupler_bar {{ length = 0.25 m; mass = 0.6 kg; inertia = 0.6 kg * (0.25 m)^2 / 12 }}
+bar rocker_bar {{ length = 0.20 m; mass = 0.5 kg; inertia = 0.5 kg * (0.20 m)^2 / 12 }}
+hinge drive joins ground.origin to crank_bar.a {{ preload = 0.2 N*m }}
+hinge knee joins crank_bar.b to coupler_bar.a {{ }}
+hinge elbow joins coupler_bar.b to rocker_bar.b {{ }}
+hinge rest joins ground.rocker_pivot to rocker_bar.a {{ }}
+initial {{ drive = {angle} deg; drive.rate = 2 rad/s }}
+simulate {{ t_end = 0.05 s; tol = 1e-9; dt_out = 0.01 s }}
+output elbow_gap = sqrt((coupler_bar.b.x - rocker_bar.b.x)^2 + (coupler_bar.b.y - rocker_bar.b.y)^2)
+"""
+
+
+@pytest.mark.parametrize("tol", [1e-9, 1e-12])
+def test_the_four_bar_assembles_at_tolerances_near_round_off(build, tol):
+    """At tol 1e-12 a thousandth of tol is below the round-off of the loop's rows (about
+    1e-16 m here): the assembly closes the loop to that round-off and the run goes on."""
+    result = build(FOURBAR.format(angle=60), "fourbar60").run(tol=tol)
+    assert result.times[-1] == pytest.approx(0.05)
+    assert result.events[0].name == "assembly"
+    assert result.residual_pos[0] < 1e-14 and result.residual_vel[0] < 1e-13
+    assert result.hinge_rates[0][result.hinge_names.index("drive")] == pytest.approx(2.0,
+                                                                                     abs=1e-14)
+
+
+def test_a_straight_start_finds_the_closure(build):
+    """Crank at 0 deg: the tree places every bar along the x axis, a stationary point of the
+    loop's residual (no first-order turn of a bar closes the elbow's x gap). The closure exists
+    (the crank tip, rocker pivot, elbow triangle has sides 0.18, 0.25, 0.20 m); the assembly
+    finds it."""
+    result = build(FOURBAR.format(angle=0), "fourbar0").run()
+    assert result.events[0].name == "assembly"
+    assert result.residual_pos[0] < 1e-13
+    assert np.max(np.abs(result.output("elbow_gap"))) < 1e-9
+    # the crank tip (0.1, 0), the rocker pivot (0.28, 0): the coupler's far end is 0.25 m from
+    # the one and 0.2 m from the other
+    q = result.q[0]
+    names = list(result.coordinate_names)
+    coupler = np.array([q[names.index("coupler_bar.x")], q[names.index("coupler_bar.y")]])
+    phi = q[names.index("coupler_bar.phi")]
+    end = coupler + 0.125 * np.array([np.cos(phi), np.sin(phi)])
+    assert np.hypot(*(end - [0.28, 0.0])) == pytest.approx(0.20, abs=1e-12)
+    assert np.hypot(*(end - [0.1, 0.0])) == pytest.approx(0.25, abs=1e-12)
+
+
+# -- a start in a dead point ------------------------------------------------------------------
+
+def test_a_start_at_rest_in_a_dead_point_is_called_ill_conditioned(tmp_path):
+    """examples/slider_crank.dep with the crank as long as the rod starts at rest with the crank
+    at 90 deg: the piston at the crank pivot, where the two branches of the loop cross and the
+    motion is not determined. The run stops at once, calling the rows ill-conditioned with
+    their measured condition, and does not suggest a looser tol (which cannot help)."""
+    from pathlib import Path
+    example = Path(__file__).resolve().parents[2] / "examples" / "slider_crank.dep"
+    sim = depsim.load(example).compile("c", out_dir=tmp_path / "slider_crank")
+    with pytest.raises(SolverError) as caught:
+        sim.run(set={"r": 0.3})
+    text = str(caught.value)
+    assert caught.value.t < 0.01
+    assert "ill-conditioned" in text and "a change of tol does not help" in text
+    condition = float(text.split("Phi_q^T is about ")[1].split(" ")[0])
+    assert condition >= 1e8
+    assert "looser tol" not in text
