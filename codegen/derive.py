@@ -21,6 +21,7 @@ from .expr import to_sympy
 from .kinematics import Coordinates, Kinematics
 from .layout import build_coordinates
 from .loads import derive_loads
+from .system import OutputScope, RowIndex, run_value_names
 
 
 
@@ -61,7 +62,9 @@ class SymbolicSystem:
     hinge_gamma: ImmutableMatrix  # (NH, 1), -(J qd)_q qd: a lock J qdd = hinge_gamma
     hinge_properties: ImmutableMatrix  # (NH, len(HINGE_PROPERTIES)), nan where not given
     output_names: tuple[str, ...]
-    outputs: ImmutableMatrix  # (NOUT, 1)
+    outputs: ImmutableMatrix  # (NOUT, 1), of q, qd, t, p, lam and w
+    w: tuple[sympy.Symbol, ...]  # NW run values an output may use (the core supplies them)
+    run_value_names: tuple[str, ...]  # their names (RUN_VALUES)
     energy_names: tuple[str, ...]
     energy: ImmutableMatrix  # (NE, 1), J
     dissipator_names: tuple[str, ...]
@@ -152,6 +155,12 @@ def derive(model: ir.Model) -> SymbolicSystem:
     hinge_jacobian = jacobian(thetas, q)
     mass = _mass_matrix(model, kin)
     loads = derive_loads(model, kin, mass, list(thetas), hinge_jacobian)
+    run_values = run_value_names(model, loads.dissipator_names)
+    w = tuple(sympy.Symbol(f"@w{i}") for i in range(len(run_values)))
+    scope = OutputScope(kin, mass, lam, w,
+                        RowIndex({(row.joint, row.name.rsplit(".", 1)[1]): i
+                                  for i, row in enumerate(rows)}),
+                        loads.energies, loads.dissipator_names, loads.springs)
     return SymbolicSystem(
         name=model.name, coordinates=symbols.names, q=q, qd=symbols.qd, p=symbols.p, t=t,
         mass_matrix=mass, mass_pattern=_pattern(mass),
@@ -169,7 +178,8 @@ def derive(model: ir.Model) -> SymbolicSystem:
         hinge_gamma=acceleration_rhs(thetas, hinge_jacobian, symbols),
         hinge_properties=_hinge_properties(model, kin),
         output_names=tuple(o.name for o in model.outputs),
-        outputs=column(_output(o, kin) for o in model.outputs),
+        outputs=column(_output(o, scope) for o in model.outputs), w=w,
+        run_value_names=run_values,
         energy_names=loads.energy_names, energy=column(loads.energies),
         dissipator_names=loads.dissipator_names, dissipation=column(loads.dissipation),
         tree_joints=assembly.tree_joints, tree_held=assembly.held, v=assembly.v,
@@ -193,7 +203,7 @@ def _loop_targets(model: ir.Model, kin: Kinematics, held: int) -> ImmutableMatri
 _NOT_FINITE = (sympy.zoo, sympy.oo, -sympy.oo, sympy.nan)
 
 
-def _output(output: ir.Output, kin: Kinematics) -> sympy.Expr:
+def _output(output: ir.Output, kin: OutputScope) -> sympy.Expr:
     """An output's expression; E905 when it has no finite value in any state (the checker
     folds constants, but `1 / (h1 - h1)` becomes 1/0 only here, where h1 - h1 cancels)."""
     expr = to_sympy(output.expr, kin)
@@ -218,8 +228,10 @@ class _Row:
 
 
 def _constraints(model: ir.Model, kin: Kinematics, at_start) -> list[_Row]:
-    """Every constraint row, hinges then sliders; a hinge's x, y rows are its reaction force
-    (`at_start`: an expression at the initial placement, for a slider's relative angle)."""
+    """Every constraint row, hinges, sliders, then welds; a hinge's (and a weld's) x, y rows
+    are its reaction force (`at_start`: an expression at the initial placement, for a
+    slider's relative angle). A slider moving a particle has no angle row, nor a weld to
+    one: a particle has no angle."""
     rows = []
     for index, hinge in enumerate(model.hinges):
         ra, rb = kin.attachment_position(hinge.a), kin.attachment_position(hinge.b)
@@ -228,9 +240,18 @@ def _constraints(model: ir.Model, kin: Kinematics, at_start) -> list[_Row]:
     for index, slider in enumerate(model.sliders):
         (ux, uy), (dx, dy) = kin.slider_axis(index), kin.slider_offset(index)
         relative = kin.attachment_angle(slider.b) - kin.attachment_angle(slider.a)
-        rows += [_Row(f"{slider.name}.normal", slider.name, -1, index, ux * dy - uy * dx),
-                 _Row(f"{slider.name}.angle", slider.name, -1, index,
-                      relative - at_start(relative))]
+        rows.append(_Row(f"{slider.name}.normal", slider.name, -1, index, ux * dy - uy * dx))
+        if slider.b.member.kind is not ir.MemberKind.PARTICLE:
+            rows.append(_Row(f"{slider.name}.angle", slider.name, -1, index,
+                             relative - at_start(relative)))
+    for weld in model.welds:
+        ra, rb = kin.attachment_position(weld.a), kin.attachment_position(weld.b)
+        rows += [_Row(f"{weld.name}.x", weld.name, -1, -1, ra[0] - rb[0]),
+                 _Row(f"{weld.name}.y", weld.name, -1, -1, ra[1] - rb[1])]
+        if weld.rotational:
+            relative = kin.attachment_angle(weld.b) - kin.attachment_angle(weld.a)
+            rows.append(_Row(f"{weld.name}.angle", weld.name, -1, -1,
+                             relative - kin.const(weld.angle)))
     return rows
 
 
@@ -242,12 +263,17 @@ def _hinge_properties(model: ir.Model, kin: Kinematics) -> ImmutableMatrix:
 
 
 def _mass_matrix(model: ir.Model, kin: Kinematics) -> ImmutableSparseMatrix:
-    """Constant M: diag(m, m, J) per rigid body, then each beam's element mass matrix."""
+    """Constant M: diag(m, m, J) per rigid body, diag(m, m) per particle, then each beam's
+    element mass matrix."""
     entries, start = {}, 0
     for b in model.bodies:
         for k, value in enumerate((b.mass, b.mass, b.inertia)):
             entries[(start + k, start + k)] = kin.const(value)
         start += 3
+    for particle in model.particles:
+        for k in range(2):
+            entries[(start + k, start + k)] = kin.const(particle.mass)
+        start += 2
     for element in kin.beams:
         block = sympy.Matrix(element.mass_matrix)
         for (a, b), value in block.todok().items():

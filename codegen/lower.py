@@ -146,7 +146,7 @@ def function_specs(system: SymbolicSystem) -> tuple[FunctionSpec, ...]:
 def slots(system: SymbolicSystem, args: tuple[str, ...]) -> dict[sympy.Symbol, str]:
     """Input symbol -> array slot text (`q[3]`, `p[7]`, `t`) for a function's arguments."""
     arrays = {"v": system.v, "vd": system.vd, "q": system.q, "qd": system.qd, "p": system.p,
-              "lam": system.lam}
+              "lam": system.lam, "w": system.w}
     table = {system.t: "t"} if "t" in args else {}
     for name in args:
         table.update({s: f"{name}[{i}]" for i, s in enumerate(arrays.get(name, ()))})
@@ -342,6 +342,7 @@ def lower_module(model: ir.Model, system: SymbolicSystem, printer: PrinterFactor
         "MASS_COLS": tuple(j for _, j in system.mass_pattern),
         "FIXED_PARAMETERS": tuple(f.name for f in model.structural),
         "FIXED_VALUES": tuple(f.value for f in model.structural),
+        "RUN_VALUES": system.run_value_names,
     }
     tables = tuple(TableView(t.constant, t.field, t.ctype, values[t.constant])
                    for t in interface.TABLES)

@@ -12,7 +12,11 @@ module with them.
 
 Arrays are float64 in SI units; q, qd have NQ entries, p NP; t is the time (s); v holds the
 values of the assembly tree's joints (NV: angles, rad, and slider displacements, m), vd their
-rates; lam holds NC multipliers (the constraint rows' forces). Matrices are row-major. A function writes every entry of its results (zeros included).
+rates; lam holds NC multipliers (the constraint rows' forces); w holds the NW run values an
+output may use, which the integrator keeps (RUN_VALUES: each hinge's lock torque, nan while
+free; the work each of the model's dissipators removed; the work of friction, of compliant
+latches and of impacts; the compliant latches' potential energy). Matrices are row-major. A
+function writes every entry of its results (zeros included).
 """
 
 from __future__ import annotations
@@ -21,9 +25,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-ABI = 10  # DEP_MODEL_ABI: bumped whenever the dep_model struct changes
+ABI = 11  # DEP_MODEL_ABI: bumped whenever the dep_model struct changes
 
-ARGUMENTS = ("v", "vd", "q", "qd", "t", "p", "lam")  # each function takes a subsequence, in order
+ARGUMENTS = ("v", "vd", "q", "qd", "t", "p", "lam", "w")  # each function takes a subsequence
 
 
 @dataclass(frozen=True, slots=True)
@@ -88,6 +92,7 @@ SIZES = (
     Size("nkz", "STIFFNESS_ROWS", "structural non-zeros of the stiffness (0: no beams)"),
     Size("nmz", "MASS_ROWS", "structural non-zeros of the mass matrix"),
     Size("nfix", "FIXED_PARAMETERS", "structural parameters (loop bounds, indices): fixed"),
+    Size("nw", "RUN_VALUES", "run values outputs may use: nh + nd + 4"),
 )
 
 TABLES = (
@@ -133,6 +138,9 @@ TABLES = (
     Table("fixed_names", "FIXED_PARAMETERS", "const char *const", "nfix",
           "structural parameters: fixed in the model text, not in p"),
     Table("fixed_values", "FIXED_VALUES", "const int", "nfix", "their values"),
+    Table("run_value_names", "RUN_VALUES", "const char *const", "nw",
+          "\"<h>.torque\" per hinge, \"work.<dissipator>\" per dissipator, then "
+          "\"work.friction\", \"work.latch\", \"work.impacts\", \"energy.latch\""),
 )
 
 SETTINGS = (("t_end", "T_END"), ("tol", "TOL"), ("dt_out", "DT_OUT"))
@@ -171,8 +179,9 @@ FUNCTIONS = (
              "-(J qd)_q qd per hinge: a locked hinge adds the row J qdd = hinge_gamma."),
     Function("hinge_properties", ("p",), (Output("H", ("nh", "nhp")),),
              "HINGE_PROPERTIES of each hinge (SI; nan: not given), shape (NH, NHP)."),
-    Function("outputs", ("q", "qd", "t", "p"), (Output("y", ("nout",)),),
-             "The named outputs, shape (NOUT,)."),
+    Function("outputs", ("q", "qd", "t", "p", "lam", "w"), (Output("y", ("nout",)),),
+             "The named outputs, shape (NOUT,), from the state, the model rows' multipliers "
+             "lam (NC,) and the run values w (NW,)."),
     Function("energy", ("q", "qd", "t", "p"), (Output("E", ("ne",)),),
              "Kinetic energy and each potential (J), in the order of ENERGIES."),
     Function("dissipation", ("q", "qd", "t", "p"), (Output("P", ("nd",)),),
@@ -217,6 +226,14 @@ def initial_state(module, p) -> tuple[np.ndarray, np.ndarray]:
             np.asarray(module.tree_tangent(v0, vd0, p), dtype=float))
 
 
+def outputs_at(module, q, qd, t: float, p, lam=None, w=None) -> np.ndarray:
+    """The module's outputs at a state (NOUT,), the multipliers `lam` (NC) and run values `w`
+    (NW) zero unless given: for analysis and tests of outputs that use neither."""
+    lam = np.zeros(int(module.NC)) if lam is None else lam
+    w = np.zeros(len(module.RUN_VALUES)) if w is None else w
+    return np.asarray(module.outputs(q, qd, t, p, lam, w), dtype=float)
+
+
 def check_module(module) -> None:
     """Raise TypeError naming what a module lacks of the interface (a programming error
     upstream: generated modules have everything)."""
@@ -232,7 +249,8 @@ def check_module(module) -> None:
 
 _C_ARGUMENTS = {"v": "const double *v", "vd": "const double *vd", "q": "const double *q",
                 "qd": "const double *qd",
-                "t": "double t", "p": "const double *p", "lam": "const double *lam"}
+                "t": "double t", "p": "const double *p", "lam": "const double *lam",
+                "w": "const double *w"}
 
 
 def c_declaration(function: Function, restrict: bool = False) -> str:

@@ -30,7 +30,7 @@ CONSTRAINT_SLIDERS = (-1, -1)
 PHI_Q_ROWS = (0, 0, 1, 1)
 PHI_Q_COLS = (0, 2, 1, 2)
 HINGES = ('pivot',)
-HINGE_PROPERTIES = ('latch', 'latch_stiffness', 'latch_damping', 'stop_min', 'stop_max', 'friction', 'static_friction', 'slip_rate')
+HINGE_PROPERTIES = ('latch', 'latch_stiffness', 'latch_damping', 'stop_min', 'stop_max', 'friction', 'static_friction', 'slip_rate', 'release')
 SLIDERS = ()
 OUTPUTS = ('theta', 'omega', 'tip_x', 'tip_y')
 OUTPUT_UNITS = ('rad', 'rad/s', 'm', 'm')
@@ -49,6 +49,7 @@ MASS_ROWS = (0, 1, 2)
 MASS_COLS = (0, 1, 2)
 FIXED_PARAMETERS = ()
 FIXED_VALUES = ()
+RUN_VALUES = ('pivot.torque', 'work.friction', 'work.latch', 'work.impacts', 'energy.latch')
 
 T_END = 10.0
 TOL = 1e-09
@@ -193,7 +194,7 @@ def hinge_gamma(q, qd, p):
 
 def hinge_properties(p):
     """HINGE_PROPERTIES of each hinge (SI; nan: not given), shape (NH, NHP)."""
-    H = numpy.zeros((1, 8))
+    H = numpy.zeros((1, 9))
     H[0, 0] = math.nan
     H[0, 1] = math.nan
     H[0, 2] = math.nan
@@ -202,20 +203,23 @@ def hinge_properties(p):
     H[0, 5] = math.nan
     H[0, 6] = math.nan
     H[0, 7] = p[5]
+    H[0, 8] = math.nan
     return H
 
 
-def outputs(q, qd, t, p):
-    """The named outputs, shape (NOUT,)."""
+def outputs(q, qd, t, p, lam, w):
+    """The named outputs, shape (NOUT,), from the state, the model rows' multipliers lam (NC,) and the run values w (NW,)."""
     # IEEE arithmetic, as in C: nan or inf outside a function's domain, never an exception
     q = numpy.asarray(q, dtype=numpy.float64)
     qd = numpy.asarray(qd, dtype=numpy.float64)
     p = numpy.asarray(p, dtype=numpy.float64)
+    lam = numpy.asarray(lam, dtype=numpy.float64)
+    w = numpy.asarray(w, dtype=numpy.float64)
     with numpy.errstate(all="ignore"):
-        return _outputs(q, qd, t, p)
+        return _outputs(q, qd, t, p, lam, w)
 
 
-def _outputs(q, qd, t, p):
+def _outputs(q, qd, t, p, lam, w):
     y = numpy.zeros((4,))
     y[0] = p[4] + q[2]
     y[1] = qd[2]

@@ -12,7 +12,7 @@
 #ifndef DEPSIM_MODEL_H
 #define DEPSIM_MODEL_H
 
-#define DEP_MODEL_ABI 10 /* bumped whenever this struct changes */
+#define DEP_MODEL_ABI 11 /* bumped whenever this struct changes */
 
 /* The columns of hinge_properties (HINGE_PROPERTIES): the hinge attributes the
    integrator applies itself (docs/language.md, hinge), SI; nan where not given. */
@@ -25,7 +25,8 @@ enum dep_hinge_property {
     DEP_HINGE_FRICTION = 5, /* N*m */
     DEP_HINGE_STATIC_FRICTION = 6, /* N*m */
     DEP_HINGE_SLIP_RATE = 7, /* rad/s */
-    DEP_HINGE_PROPERTIES = 8 /* their count: every model's nhp */
+    DEP_HINGE_RELEASE = 8, /* s */
+    DEP_HINGE_PROPERTIES = 9 /* their count: every model's nhp */
 };
 /* Their names, in column order (an initializer of const char *[]). */
 #define DEP_HINGE_PROPERTY_NAMES \
@@ -36,7 +37,8 @@ enum dep_hinge_property {
      "stop_max", \
      "friction", \
      "static_friction", \
-     "slip_rate"}
+     "slip_rate", \
+     "release"}
 
 typedef struct dep_model {
     int abi; /* DEP_MODEL_ABI of the header the model was compiled with */
@@ -65,6 +67,7 @@ typedef struct dep_model {
     int nkz; /* structural non-zeros of the stiffness (0: no beams) */
     int nmz; /* structural non-zeros of the mass matrix */
     int nfix; /* structural parameters (loop bounds, indices): fixed */
+    int nw; /* run values outputs may use: nh + nd + 4 */
 
     /* tables (NULL when empty) */
     const char *const *coordinate_names; /* nq */
@@ -97,6 +100,7 @@ typedef struct dep_model {
     const int *mass_cols; /* nmz */
     const char *const *fixed_names; /* nfix, structural parameters: fixed in the model text, not in p */
     const int *fixed_values; /* nfix, their values */
+    const char *const *run_value_names; /* nw, "<h>.torque" per hinge, "work.<dissipator>" per dissipator, then "work.friction", "work.latch", "work.impacts", "energy.latch" */
 
     /* the model's simulation settings */
     double t_end, tol, dt_out;
@@ -134,8 +138,8 @@ typedef struct dep_model {
     void (*hinge_gamma)(const double *q, const double *qd, const double *p, double *gamma_h);
     /* HINGE_PROPERTIES of each hinge (SI; nan: not given), shape (NH, NHP). */
     void (*hinge_properties)(const double *p, double *H);
-    /* The named outputs, shape (NOUT,). */
-    void (*outputs)(const double *q, const double *qd, double t, const double *p, double *y);
+    /* The named outputs, shape (NOUT,), from the state, the model rows' multipliers lam (NC,) and the run values w (NW,). */
+    void (*outputs)(const double *q, const double *qd, double t, const double *p, const double *lam, const double *w, double *y);
     /* Kinetic energy and each potential (J), in the order of ENERGIES. */
     void (*energy)(const double *q, const double *qd, double t, const double *p, double *E);
     /* Power removed by each element of DISSIPATORS (W). */

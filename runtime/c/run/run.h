@@ -60,6 +60,11 @@ typedef struct dep_recorder {
     double *lam_values;
     int lam_count, lam_capacity;
     double *f, *J, *qdd, *v;   /* scratch */
+    double *w, *energy_scratch; /* nw: the run values outputs use; ne scratch */
+    dep_event_record *const *records; /* the run's records (impact losses), NULL: none */
+    const int *n_records;
+    int impacts_counted;       /* records whose impact loss is in `impacts` */
+    double impacts;            /* kinetic energy the impacts so far removed, J */
     dep_arena *arena;
 } dep_recorder;
 
@@ -69,6 +74,17 @@ int dep_recorder_init(dep_recorder *rec, const dep_system *system, dep_mechanism
 int dep_recorder_pending(dep_recorder *rec, double t_until, int *first);
 int dep_record(dep_recorder *rec, double t, const double *q, const double *qd, const double *lam,
                const double *work, dep_constraints *cs);
+/* The run values' layout (model->nw of them in a generated model): nh lock torques, nd
+   works, then friction, latches, impacts and the latches' energy. */
+#define DEP_RUN_VALUES(m) ((size_t)(m)->nh + (size_t)(m)->nd + 4)
+/* The energy impacts removed, summed over records[0..n) (`impact_energy_loss`), J. */
+double dep_impact_loss(const dep_event_record *records, int n);
+/* The run values w (model->nw, depsim_model.h run_value_names) at a state: each hinge's lock
+   torque (torques: nh, NAN while free; 0 in w), the work of the model's dissipators, then of friction, of the
+   compliant latches and of impacts (`impacts`, J), and the compliant latches' potential
+   energy (energy: ne scratch). */
+void dep_run_values(const dep_system *system, const double *q, const double *torques,
+                    const double *work, double impacts, double *energy, double *w);
 double dep_recorder_last_time(const dep_recorder *rec);
 int dep_recorder_result(dep_recorder *rec, dep_result *result);
 
@@ -149,6 +165,7 @@ struct dep_run { /* typedef in depsim.h */
     dep_active_rows state_rows, dense_rows;
     dep_event_record *records;
     int n_records, records_capacity;
+    double *run_values, *run_energy; /* nw, ne: dep_run_outputs' scratch */
     double t_stop;   /* the end of the current dep_advance: no step passes it */
     double h_next;   /* the step size to try next; 0: none yet (first_step) */
     int recording;   /* 1: outputs at the output times (dep_simulate); 0: dep_open's runs */
@@ -167,6 +184,8 @@ int dep_run_begin(dep_run *run);     /* the assembled initial state at t = 0, it
 int dep_run_until(dep_run *run, double t);           /* steps to t (or a stopping event) */
 int dep_run_integrate(dep_run *run); /* dep_simulate's run: to t_end, piece by piece of tables */
 int dep_run_finish(dep_run *run, dep_result *result); /* the result of a finished run */
+/* The model's outputs (nout) at the run's current state (dep_outputs). */
+void dep_run_outputs(dep_run *run, double *outputs);
 
 /* state.c */
 int dep_run_pass_error(dep_run *run, const dep_failure *failure, double t);

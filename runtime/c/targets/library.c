@@ -87,10 +87,7 @@ double dep_time(const dep_run *run)
 
 void dep_outputs(dep_run *run, double *outputs)
 {
-    const dep_state *s = &run->state;
-    if (run->model->nout > 0) {
-        run->model->outputs(s->q, s->qd, s->t, run->p, outputs);
-    }
+    dep_run_outputs(run, outputs);
 }
 
 void dep_hinge_states(dep_run *run, dep_hinge_state *out)

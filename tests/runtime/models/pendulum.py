@@ -63,6 +63,13 @@ STIFFNESS_ROWS = ()  # no stiff forces: the explicit step throughout
 STIFFNESS_COLS = ()
 MASS_ROWS = MASS_COLS = (0, 1, 2)  # diagonal
 FIXED_PARAMETERS = FIXED_VALUES = ()  # no structural parameters
+# the run values outputs may use: lock torques, the dissipators' work, totals
+RUN_VALUES = ('pivot.torque',
+              'work.damping.pivot',
+              'work.friction',
+              'work.latch',
+              'work.impacts',
+              'energy.latch')
 
 
 def tree_values(p):
@@ -123,7 +130,7 @@ def hinge_jacobian(q, p):
     return np.array([1.0])
 
 
-def outputs(q, qd, t, p):
+def outputs(q, qd, t, p, lam, w):
     L = p[0]
     return np.array([q[2] + np.pi / 2, qd[2], q[0] + L / 2 * np.cos(q[2]),
                      q[1] + L / 2 * np.sin(q[2])])
@@ -148,4 +155,4 @@ def hinge_gamma(q, qd, p):
 
 
 def hinge_properties(p):
-    return np.full((1, 8), np.nan)  # no latch, stop or friction
+    return np.full((1, len(HINGE_PROPERTIES)), np.nan)  # no latch, stop or friction

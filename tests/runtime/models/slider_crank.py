@@ -80,6 +80,15 @@ STIFFNESS_ROWS = ()  # no stiff forces: the explicit step throughout
 STIFFNESS_COLS = ()
 MASS_ROWS = MASS_COLS = tuple(range(9))  # diagonal
 FIXED_PARAMETERS = FIXED_VALUES = ()  # no structural parameters
+# the run values outputs may use: lock torques, the dissipators' work, totals
+RUN_VALUES = ('crank_pin.torque',
+              'wrist.torque',
+              'gudgeon.torque',
+              'work.damping.crank_pin',
+              'work.friction',
+              'work.latch',
+              'work.impacts',
+              'energy.latch')
 
 
 def tree_values(p):
@@ -158,7 +167,7 @@ def hinge_jacobian(q, p):
     return np.array([1.0, -1.0, 1.0, -1.0, 1.0])  # at HINGE_JACOBIAN_ROWS, _COLS
 
 
-def outputs(q, qd, t, p):
+def outputs(q, qd, t, p, lam, w):
     return np.array([q[2], q[6], q[5]])
 
 
@@ -181,4 +190,4 @@ def hinge_gamma(q, qd, p):
 
 
 def hinge_properties(p):
-    return np.full((3, 8), np.nan)  # no latch, stop or friction
+    return np.full((3, len(HINGE_PROPERTIES)), np.nan)  # no latch, stop or friction
