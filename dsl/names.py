@@ -113,7 +113,9 @@ def _declare(table: SymbolTable, ident, kind: str, report: Reporter) -> bool:
     name = ident.text
     if name in KEYWORDS or name in FUNCTIONS or name in CONSTANTS or name in BUILT_IN:
         what = "a keyword" if name in KEYWORDS else "a function" if name in FUNCTIONS \
-            else KIND_WORDS[name] if name in BUILT_IN else "a built-in constant"
+            else "the ground" if name == "ground" \
+            else "reserved for the system's quantities (system.momentum_x, ...)" \
+            if name == "system" else "a built-in constant"
         report.error("E014", f"'{name}' is {what} and cannot name a {KIND_WORDS[kind]}",
                      ident.span, hint="choose another name")
         return False
