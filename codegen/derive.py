@@ -21,7 +21,7 @@ from .expr import to_sympy
 from .kinematics import Coordinates, Kinematics
 from .layout import build_coordinates
 from .loads import derive_loads
-from .system import OutputScope, RowIndex, run_value_names
+from .system import SYSTEM_STATE, OutputScope, RowIndex, run_value_names
 
 
 
@@ -64,6 +64,7 @@ class SymbolicSystem:
     output_names: tuple[str, ...]
     outputs: ImmutableMatrix  # (NOUT, 1), of q, qd, t, p, lam and w
     w: tuple[sympy.Symbol, ...]  # NW run values an output may use (the core supplies them)
+    system_state: ImmutableMatrix  # (NSYS, 1): SYSTEM_STATE of q, qd, p
     run_value_names: tuple[str, ...]  # their names (RUN_VALUES)
     energy_names: tuple[str, ...]
     energy: ImmutableMatrix  # (NE, 1), J
@@ -179,6 +180,7 @@ def derive(model: ir.Model) -> SymbolicSystem:
         hinge_properties=_hinge_properties(model, kin),
         output_names=tuple(o.name for o in model.outputs),
         outputs=column(_output(o, scope) for o in model.outputs), w=w,
+        system_state=column(scope.system_quantity(name, None) for name in SYSTEM_STATE),
         run_value_names=run_values,
         energy_names=loads.energy_names, energy=column(loads.energies),
         dissipator_names=loads.dissipator_names, dissipation=column(loads.dissipation),

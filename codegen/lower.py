@@ -18,6 +18,7 @@ from depsim.runtime import interface
 from .assembly import Group
 from .derive import SymbolicSystem, column
 from .printing import LoweringError, SlotPrinter
+from .system import SYSTEM_STATE
 
 PrinterFactory = Callable[..., SlotPrinter]  # (slots, temporaries) -> printer
 
@@ -134,6 +135,7 @@ def function_specs(system: SymbolicSystem) -> tuple[FunctionSpec, ...]:
         "hinge_rates": (s.hinge_rates,), "hinge_jacobian": (column(s.hinge_jacobian[i, j] for i, j in s.hinge_jacobian_pattern),),
         "hinge_gamma": (s.hinge_gamma,), "hinge_properties": (s.hinge_properties,),
         "outputs": (s.outputs,), "energy": (s.energy,), "dissipation": (s.dissipation,),
+        "system_state": (s.system_state,),
         "stiffness": (s.stiffness, s.stiffness_damping),
     }
     return tuple(FunctionSpec(f.name, f.args, f.summary,
@@ -342,7 +344,7 @@ def lower_module(model: ir.Model, system: SymbolicSystem, printer: PrinterFactor
         "MASS_COLS": tuple(j for _, j in system.mass_pattern),
         "FIXED_PARAMETERS": tuple(f.name for f in model.structural),
         "FIXED_VALUES": tuple(f.value for f in model.structural),
-        "RUN_VALUES": system.run_value_names,
+        "RUN_VALUES": system.run_value_names, "SYSTEM_STATE": SYSTEM_STATE,
     }
     tables = tuple(TableView(t.constant, t.field, t.ctype, values[t.constant])
                    for t in interface.TABLES)

@@ -25,6 +25,9 @@ from depsim.dsl import ir
 
 from .kinematics import Kinematics
 
+# The columns of the generated system_state(q, qd, p) (depsim.runtime.interface).
+SYSTEM_STATE = ("mass", "com_x", "com_y", "momentum_x", "momentum_y", "angular_momentum")
+
 # The run values after the hinges' lock torques and the model's dissipators' work, in order.
 RUN_TOTALS = ("work.friction", "work.latch", "work.impacts", "energy.latch")
 

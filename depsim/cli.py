@@ -394,6 +394,9 @@ def _run(args) -> int:
             animate(result, sim.module, args.animate,
                     outlines=sim.outlines(result.parameters))
     print(result.report())
+    floating = model.ir.free_joints or any(w.code == "W001" for w in model.ir.warnings)
+    if floating and result.system_line():
+        print(result.system_line())
     print(f"  code: reused from the cache ({sim.cached}): nothing derived" if sim.cached
           else "  code: derived and generated (kept in the cache for the next run)")
     return EXIT_OK

@@ -93,6 +93,7 @@ SIZES = (
     Size("nmz", "MASS_ROWS", "structural non-zeros of the mass matrix"),
     Size("nfix", "FIXED_PARAMETERS", "structural parameters (loop bounds, indices): fixed"),
     Size("nw", "RUN_VALUES", "run values outputs may use: nh + nd + 4"),
+    Size("nsys", "SYSTEM_STATE", "the system's quantities of system_state"),
 )
 
 TABLES = (
@@ -141,6 +142,9 @@ TABLES = (
     Table("run_value_names", "RUN_VALUES", "const char *const", "nw",
           "\"<h>.torque\" per hinge, \"work.<dissipator>\" per dissipator, then "
           "\"work.friction\", \"work.latch\", \"work.impacts\", \"energy.latch\""),
+    Table("system_state_names", "SYSTEM_STATE", "const char *const", "nsys",
+          "columns of system_state(): mass, com_x, com_y, momentum_x, momentum_y, "
+          "angular_momentum (about the centre of mass)"),
 )
 
 SETTINGS = (("t_end", "T_END"), ("tol", "TOL"), ("dt_out", "DT_OUT"))
@@ -182,6 +186,9 @@ FUNCTIONS = (
     Function("outputs", ("q", "qd", "t", "p", "lam", "w"), (Output("y", ("nout",)),),
              "The named outputs, shape (NOUT,), from the state, the model rows' multipliers "
              "lam (NC,) and the run values w (NW,)."),
+    Function("system_state", ("q", "qd", "p"), (Output("s", ("nsys",)),),
+             "The whole system's mass (kg), centre of mass (m), momentum (N*s) and angular "
+             "momentum about its centre of mass (N*m*s), in the order of SYSTEM_STATE."),
     Function("energy", ("q", "qd", "t", "p"), (Output("E", ("ne",)),),
              "Kinetic energy and each potential (J), in the order of ENERGIES."),
     Function("dissipation", ("q", "qd", "t", "p"), (Output("P", ("nd",)),),

@@ -50,6 +50,7 @@ MASS_COLS = (0, 1, 2)
 FIXED_PARAMETERS = ()
 FIXED_VALUES = ()
 RUN_VALUES = ('pivot.torque', 'work.friction', 'work.latch', 'work.impacts', 'energy.latch')
+SYSTEM_STATE = ('mass', 'com_x', 'com_y', 'momentum_x', 'momentum_y', 'angular_momentum')
 
 T_END = 10.0
 TOL = 1e-09
@@ -227,6 +228,18 @@ def _outputs(q, qd, t, p, lam, w):
     y[2] = q[0] + x0*numpy.cos(q[2])
     y[3] = q[1] + x0*numpy.sin(q[2])
     return y
+
+
+def system_state(q, qd, p):
+    """The whole system's mass (kg), centre of mass (m), momentum (N*s) and angular momentum about its centre of mass (N*m*s), in the order of SYSTEM_STATE."""
+    s = numpy.zeros((6,))
+    s[0] = p[1]
+    s[1] = q[0]
+    s[2] = q[1]
+    s[3] = p[1]*qd[0]
+    s[4] = p[1]*qd[1]
+    s[5] = (1/12)*(p[0]*p[0])*p[1]*qd[2]
+    return s
 
 
 def energy(q, qd, t, p):

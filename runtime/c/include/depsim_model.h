@@ -68,6 +68,7 @@ typedef struct dep_model {
     int nmz; /* structural non-zeros of the mass matrix */
     int nfix; /* structural parameters (loop bounds, indices): fixed */
     int nw; /* run values outputs may use: nh + nd + 4 */
+    int nsys; /* the system's quantities of system_state */
 
     /* tables (NULL when empty) */
     const char *const *coordinate_names; /* nq */
@@ -101,6 +102,7 @@ typedef struct dep_model {
     const char *const *fixed_names; /* nfix, structural parameters: fixed in the model text, not in p */
     const int *fixed_values; /* nfix, their values */
     const char *const *run_value_names; /* nw, "<h>.torque" per hinge, "work.<dissipator>" per dissipator, then "work.friction", "work.latch", "work.impacts", "energy.latch" */
+    const char *const *system_state_names; /* nsys, columns of system_state(): mass, com_x, com_y, momentum_x, momentum_y, angular_momentum (about the centre of mass) */
 
     /* the model's simulation settings */
     double t_end, tol, dt_out;
@@ -140,6 +142,8 @@ typedef struct dep_model {
     void (*hinge_properties)(const double *p, double *H);
     /* The named outputs, shape (NOUT,), from the state, the model rows' multipliers lam (NC,) and the run values w (NW,). */
     void (*outputs)(const double *q, const double *qd, double t, const double *p, const double *lam, const double *w, double *y);
+    /* The whole system's mass (kg), centre of mass (m), momentum (N*s) and angular momentum about its centre of mass (N*m*s), in the order of SYSTEM_STATE. */
+    void (*system_state)(const double *q, const double *qd, const double *p, double *s);
     /* Kinetic energy and each potential (J), in the order of ENERGIES. */
     void (*energy)(const double *q, const double *qd, double t, const double *p, double *E);
     /* Power removed by each element of DISSIPATORS (W). */

@@ -64,6 +64,7 @@ STIFFNESS_COLS = ()
 MASS_ROWS = MASS_COLS = (0, 1, 2)  # diagonal
 FIXED_PARAMETERS = FIXED_VALUES = ()  # no structural parameters
 # the run values outputs may use: lock torques, the dissipators' work, totals
+SYSTEM_STATE = ("mass", "com_x", "com_y", "momentum_x", "momentum_y", "angular_momentum")
 RUN_VALUES = ('pivot.torque',
               'work.damping.pivot',
               'work.friction',
@@ -128,6 +129,18 @@ def hinge_rates(q, qd, p):
 
 def hinge_jacobian(q, p):
     return np.array([1.0])
+
+
+def system_state(q, qd, p):
+    """Rigid bodies (x, y, phi) with the diagonal mass_matrix: mass, centre of mass, momentum,
+    angular momentum about the centre of mass."""
+    m, q, qd = np.asarray(mass_matrix(p)), np.asarray(q), np.asarray(qd)
+    mass = m[0::3].sum()
+    com = np.array([m[0::3] @ q[0::3], m[1::3] @ q[1::3]]) / mass
+    px, py = m[0::3] @ qd[0::3], m[1::3] @ qd[1::3]
+    h = (m[2::3] @ qd[2::3] + m[0::3] @ (q[0::3] * qd[1::3] - q[1::3] * qd[0::3])
+         - (com[0] * py - com[1] * px))
+    return np.array([mass, com[0], com[1], px, py, h])
 
 
 def outputs(q, qd, t, p, lam, w):
