@@ -13,15 +13,20 @@ from .output import atomic_path
 from .plot import plot_format
 
 MAX_PANELS = 6
-AMPLITUDE = 0.15  # the largest displacement drawn, as a share of the mechanism's size
+AMPLITUDE = 0.06  # the largest displacement drawn, as a share of the mechanism's size
 
 
-def _amplitude(geometry: Geometry, q: np.ndarray) -> float:
-    """The displacement (m) a unit mode shape is drawn at: AMPLITUDE of the mechanism's size."""
-    points = np.concatenate([shape for shape in geometry.shapes(q)[0]] or [np.zeros((1, 2))])
-    points = points[np.isfinite(points).all(axis=1)]
-    size = float(np.max(points.max(axis=0) - points.min(axis=0))) if len(points) else 1.0
-    return AMPLITUDE * max(size, 1e-3)
+def _amplitude(geometry: Geometry, q: np.ndarray, shape: np.ndarray) -> float:
+    """The multiple of `shape` drawn: its drawn points' largest displacement AMPLITUDE of the
+    mechanism's size (a mode that mostly turns members moves their ends, not their centres)."""
+    points = np.concatenate([outline for outline in geometry.outlines(q)] or [np.zeros((1, 2))])
+    finite = np.isfinite(points).all(axis=1)
+    size = float(np.max(np.ptp(points[finite], axis=0))) if finite.any() else 1.0
+    step = 1e-6 * max(size, 1e-3) / max(float(np.max(np.abs(shape))), 1e-300)
+    moved = np.concatenate([outline for outline in geometry.outlines(q + step * shape)]
+                           or [np.zeros((1, 2))])
+    largest = float(np.max(np.linalg.norm((moved - points)[finite], axis=1), initial=0.0)) / step
+    return AMPLITUDE * max(size, 1e-3) / largest if largest > 0 else 0.0
 
 
 def _draw(ax, geometry: Geometry, q, colour: str, alpha: float, width: float):
@@ -53,12 +58,11 @@ def plot_modes(found, module, path, params, outlines=None, count: int = MAX_PANE
     figure = Figure(figsize=(4.2 * columns, 4.0 * rows + 0.4), layout="constrained", dpi=100)
     FigureCanvasAgg(figure)
     axes = figure.subplots(rows, columns, squeeze=False).ravel()
-    scale = _amplitude(geometry, found.q)
     for k, ax in enumerate(axes):
         if k >= min(shown, len(found.frequencies)):
             ax.axis("off")
             continue
-        displaced = found.q + scale * found.shapes[k]
+        displaced = found.q + _amplitude(geometry, found.q, found.shapes[k]) * found.shapes[k]
         _draw(ax, geometry, found.q, "0.6", 0.8, 1.0)
         _draw(ax, geometry, displaced, "C0", 1.0, 1.6)
         _set_limits(ax, [(geometry.outlines(x), geometry.shapes(x)[1])
@@ -84,11 +88,11 @@ def animate_modes(found, module, path, params, outlines=None, count: int = MAX_P
     writer = _writer(path, fps)
     geometry = Geometry(module, np.asarray(params, dtype=float), outlines)
     shown = min(count, len(found.frequencies))
-    scale = _amplitude(geometry, found.q)
+    scales = [_amplitude(geometry, found.q, found.shapes[k]) for k in range(shown)]
     figure = Figure(figsize=(6, 6), dpi=DPI)
     FigureCanvasAgg(figure)
     ax = figure.add_subplot()
-    extremes = [found.q + sign * scale * found.shapes[k] for k in range(shown)
+    extremes = [found.q + sign * scales[k] * found.shapes[k] for k in range(shown)
                 for sign in (-1, 1)] or [found.q]
     _set_limits(ax, [(geometry.outlines(x), geometry.shapes(x)[1]) for x in extremes])
     ax.set_aspect("equal")
@@ -101,7 +105,8 @@ def animate_modes(found, module, path, params, outlines=None, count: int = MAX_P
                 for artist in list(ax.patches) + list(ax.lines):
                     artist.remove()
                 _draw(ax, geometry, found.q, "0.7", 0.8, 1.0)
-                _draw(ax, geometry, found.q + phase * scale * found.shapes[k], "C0", 1.0, 1.6)
+                _draw(ax, geometry, found.q + phase * scales[k] * found.shapes[k], "C0", 1.0,
+                      1.6)
                 ax.set_title(f"{found.model}: mode {k + 1}, {found.frequencies[k]:.4g} Hz")
                 writer.grab_frame()
                 count_frames += 1

@@ -330,7 +330,7 @@ def state_of(result, module, row: int, compliant_engaged: bool = False) -> Linea
         in_contact = np.isfinite(result.hinge_torque[row, k])
         if in_contact or (compliant_engaged and hinge in engaged):
             springs.append((k, float(stiffness), float(properties[k, columns.index("latch")])))
-    return Linearization(q, float(result.times[row]), tuple(locked), tuple(springs))
+    return Linearization(q, float(result.times[row]), tuple(sorted(locked)), tuple(springs))
 
 
 def deployed_state(result, module) -> Linearization:
