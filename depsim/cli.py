@@ -374,6 +374,8 @@ def _run(args) -> int:
     tables = _input_tables(args.input)
     model = _load(args)
     _check_output_times(model, args)
+    # a free-flying model: its momentum and energy balance in the summary and the report
+    floating = bool(model.ir.free_joints) or any(w.code == "W001" for w in model.ir.warnings)
     sim = model.compile(target=args.target)
     try:
         result = sim.run(set=settings, t_end=args.t_end, dt_out=args.dt_out, tol=args.tol,
@@ -385,7 +387,7 @@ def _run(args) -> int:
         if args.out:
             result.to_csv(args.out)
         if args.summary:
-            result.to_json(args.summary)
+            result.to_json(args.summary, system=floating)
         if args.plot:
             from depsim.runtime.plot import plot_outputs
             plot_outputs(result, args.plot)
@@ -394,7 +396,6 @@ def _run(args) -> int:
             animate(result, sim.module, args.animate,
                     outlines=sim.outlines(result.parameters))
     print(result.report())
-    floating = model.ir.free_joints or any(w.code == "W001" for w in model.ir.warnings)
     if floating and result.system_line():
         print(result.system_line())
     print(f"  code: reused from the cache ({sim.cached}): nothing derived" if sim.cached

@@ -172,9 +172,10 @@ class Result:
         lines = [header] + [",".join(f"{v:.17g}" for v in row) for row in table]
         _write_atomic(path, "\n".join(lines) + "\n")
 
-    def summary(self) -> dict:
-        """Model, parameters, tolerances, statistics and events as plain JSON-ready data."""
-        return {
+    def summary(self, system: bool = False) -> dict:
+        """Model, parameters, tolerances, statistics and events as plain JSON-ready data;
+        `system`: with the system's momentum and energy balance (system_summary)."""
+        found = {
             "model": self.model,
             "method": self.method,
             "parameters": dict(zip(self.parameter_names, map(float, self.parameters))),
@@ -185,8 +186,10 @@ class Result:
             "deployment": _deployment_summary(self.deployment),
             "peak_hinge_loads": {h: _finite(dataclasses.asdict(p))
                                  for h, p in self.peak_loads.items()},
-            "system": self.system_summary(),
         }
+        if system:
+            found["system"] = self.system_summary()
+        return found
 
     def system_summary(self) -> dict:
         """The system's quantities (mass, centre of mass, momentum, angular momentum about the
@@ -214,9 +217,9 @@ class Result:
                 f"momentum about its centre of mass {h['end']:.6g} N*m*s; largest change over "
                 f"the run {change:.2g} N*s and {h['largest_change']:.2g} N*m*s")
 
-    def to_json(self, path) -> None:
-        """The `summary()` as JSON."""
-        _write_atomic(path, json.dumps(self.summary(), indent=2) + "\n")
+    def to_json(self, path, system: bool = False) -> None:
+        """The `summary(system)` as JSON."""
+        _write_atomic(path, json.dumps(self.summary(system), indent=2) + "\n")
 
     def report(self) -> str:
         """Human-readable lines: deployment first (deployed or not, latches with time, rate and
