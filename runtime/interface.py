@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-ABI = 10  # DEP_MODEL_ABI: bumped whenever the dep_model struct changes
+ABI = 11  # DEP_MODEL_ABI: bumped whenever the dep_model struct changes
 
 ARGUMENTS = ("v", "vd", "q", "qd", "t", "p", "lam")  # each function takes a subsequence, in order
 
@@ -88,6 +88,8 @@ SIZES = (
     Size("nkz", "STIFFNESS_ROWS", "structural non-zeros of the stiffness (0: no beams)"),
     Size("nmz", "MASS_ROWS", "structural non-zeros of the mass matrix"),
     Size("nfix", "FIXED_PARAMETERS", "structural parameters (loop bounds, indices): fixed"),
+    Size("nlim", "LIMITS", "range checks of the parameters (the model text's)"),
+    Size("nlimp", "LIMIT_PARAMETER_ROWS", "(range check, parameter) pairs it depends on"),
 )
 
 TABLES = (
@@ -133,6 +135,16 @@ TABLES = (
     Table("fixed_names", "FIXED_PARAMETERS", "const char *const", "nfix",
           "structural parameters: fixed in the model text, not in p"),
     Table("fixed_values", "FIXED_VALUES", "const int", "nfix", "their values"),
+    Table("limit_names", "LIMITS", "const char *const", "nlim",
+          "what each range check tests, e.g. \"rod.length\", in the model text's order"),
+    Table("limit_kinds", "LIMIT_KINDS", "const int", "nlim",
+          "enum dep_limit_kind: value > 0, >= 0, != 0, < bound, >= bound"),
+    Table("limit_messages", "LIMIT_MESSAGES", "const char *const", "nlim",
+          "the check broken in words, a printf format of the value and the bound (%g each, "
+          "in that order; %% a percent sign)"),
+    Table("limit_parameter_rows", "LIMIT_PARAMETER_ROWS", "const int", "nlimp",
+          "row-major sorted: range check i depends on parameter j"),
+    Table("limit_parameter_cols", "LIMIT_PARAMETER_COLS", "const int", "nlimp", ""),
 )
 
 SETTINGS = (("t_end", "T_END"), ("tol", "TOL"), ("dt_out", "DT_OUT"))
@@ -180,6 +192,9 @@ FUNCTIONS = (
     Function("stiffness", ("q", "p"), (Output("K", ("nkz",)), Output("D", ("nkz",))),
              "The stiff forces' Jacobian of a model with beams, K ~ -df/dq and D ~ -df/dqd, at "
              "(STIFFNESS_ROWS, STIFFNESS_COLS)."),
+    Function("parameter_checks", ("p",), (Output("value", ("nlim",)),
+                                          Output("bound", ("nlim",))),
+             "Each range check's value and its bound (kinds below and at_least; else 0)."),
 )
 
 FUNCTION_NAMES = tuple(f.name for f in FUNCTIONS)

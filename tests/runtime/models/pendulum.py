@@ -63,6 +63,10 @@ STIFFNESS_ROWS = ()  # no stiff forces: the explicit step throughout
 STIFFNESS_COLS = ()
 MASS_ROWS = MASS_COLS = (0, 1, 2)  # diagonal
 FIXED_PARAMETERS = FIXED_VALUES = ()  # no structural parameters
+LIMITS = ("rod.length",)  # one range check: L > 0 (depsim.dsl.limits)
+LIMIT_KINDS = (0,)  # positive
+LIMIT_MESSAGES = ("rod.length must be positive, got %g m",)
+LIMIT_PARAMETER_ROWS = LIMIT_PARAMETER_COLS = (0,)
 
 
 def tree_values(p):
@@ -149,3 +153,7 @@ def hinge_gamma(q, qd, p):
 
 def hinge_properties(p):
     return np.full((1, 8), np.nan)  # no latch, stop or friction
+
+
+def parameter_checks(p):
+    return np.array([p[0]]), np.zeros(1)

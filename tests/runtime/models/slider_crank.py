@@ -80,6 +80,8 @@ STIFFNESS_ROWS = ()  # no stiff forces: the explicit step throughout
 STIFFNESS_COLS = ()
 MASS_ROWS = MASS_COLS = tuple(range(9))  # diagonal
 FIXED_PARAMETERS = FIXED_VALUES = ()  # no structural parameters
+LIMITS = LIMIT_KINDS = LIMIT_MESSAGES = ()  # no range checks
+LIMIT_PARAMETER_ROWS = LIMIT_PARAMETER_COLS = ()
 
 
 def tree_values(p):
@@ -182,3 +184,7 @@ def hinge_gamma(q, qd, p):
 
 def hinge_properties(p):
     return np.full((3, 8), np.nan)  # no latch, stop or friction
+
+
+def parameter_checks(p):
+    return np.zeros(0), np.zeros(0)
