@@ -326,6 +326,15 @@ void dep_close(dep_run *run);                            /* NULL is fine */
 /* The index of parameter `name`, or -1. */
 int dep_parameter_index(const dep_model *model, const char *name);
 
+/* The model text's range checks (a length > 0, a friction >= 0, stop_min < stop_max, ...: the
+   model's limit_* tables) for the parameters p (np values): DEP_OK, else DEP_SETTINGS_ERROR
+   with every check p breaks in `error`, worded as depsim.dsl.check_parameters words them and
+   joined by "; ", e.g. "rod.length must be positive, got -2 m (from L = -1 m)". only: NULL
+   to apply every check; else np flags, and only the checks whose parameters are all flagged
+   are applied. dep_simulate and dep_open apply every check before anything runs. */
+int dep_check_parameters(const dep_model *model, const double *p, const unsigned char *only,
+                         dep_error *error);
+
 /* x as printf's "%.17g" writes it (the same characters: enough digits to read x back exactly),
    into out (DEP_FORMAT_SIZE chars); returns its length. decimal.c: several times faster. */
 #define DEP_FORMAT_SIZE 32

@@ -3,7 +3,7 @@
  * modes (mechanics.h), locates events on the dense output, applies what they change, and
  * records the outputs, the hinge loads, the event records and the deployment summary.
  *
- *   settings.c   the checks of a run's settings and input tables
+ *   settings.c   the checks of a run's settings, input tables and parameters' ranges
  *   tally.c      work and accuracy counters
  *   loads.c      hinge forces and lock torques from the multipliers; their peaks
  *   recording.c  outputs at the requested times; the result
@@ -27,6 +27,9 @@
    round-off. open: dep_open's settings (t_end may be INFINITY; dt_out and tables unused). */
 int dep_check_settings(const dep_model *model, const double *p, const dep_settings *settings,
                        int open, dep_error *error);
+/* The model text's range checks of p (dep_check_parameters, depsim.h). */
+int dep_check_limits(const dep_model *model, const double *p, const unsigned char *only,
+                     dep_error *error);
 
 /* ---- loads.c: hinge forces and lock torques from the multipliers; their peaks -------------- */
 

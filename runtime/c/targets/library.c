@@ -25,6 +25,13 @@ int dep_parameter_index(const dep_model *model, const char *name)
     return -1;
 }
 
+int dep_check_parameters(const dep_model *model, const double *p, const unsigned char *only,
+                         dep_error *error)
+{
+    dep_error_clear(error);
+    return dep_check_limits(model, p, only, error);
+}
+
 int dep_simulate(const dep_model *model, const double *params, const dep_settings *settings,
                  const dep_event *events, int n_events, dep_result *result, dep_error *error)
 {
