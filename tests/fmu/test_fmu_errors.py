@@ -67,6 +67,50 @@ def test_null_and_non_finite_arguments(fmu_path, slave):
     assert "vr or value is NULL" in s.log.errors()[-1]
 
 
+def test_values_out_of_the_models_ranges_are_refused_when_set(fmu_path, slave):
+    """fmi2SetReal refuses a value that breaks a range of the model text (as `depsim run
+    --set` does), with the reason, before fmi2EnterInitializationMode and in initialization
+    mode alike; nothing is stored; fmi2Reset starts afresh and the model's values run."""
+    s = slave(fmu_path("fourbar"))
+    _raises_error(s.fmu.setReal, [s.vr["crank"]], [-0.1])
+    assert s.log.errors() == ["fmi2SetReal: crank_bar.length must be positive, got -0.1 m "
+                              "(from crank = -0.1 m)"]
+    s.fmu.reset()
+    s.fmu.setupExperiment(startTime=0.0)
+    s.fmu.enterInitializationMode()
+    assert s.real("crank") == 0.1  # the refused value was not kept
+    _raises_error(s.fmu.setReal, [s.vr["drive.damping"]], [-0.5])
+    assert s.log.errors()[-1] == ("fmi2SetReal: drive.damping must not be negative, got -0.5 "
+                                  "N*m*s/rad")
+    _raises_error(s.fmu.exitInitializationMode)  # the instance refuses to go on
+    s.fmu.reset()
+    s.start({"drive.damping": 0.5, "crank": 0.12})
+    s.fmu.doStep(0.0, 0.1)
+    assert s.real("crank") == 0.12
+
+
+def test_a_range_between_two_parameters_is_checked_once_both_can_be_set(fmu_path, slave):
+    """stop_min < stop_max: one call setting both is checked at once; separate calls may pass
+    through a pair out of order, and the pair is checked when initialization ends."""
+    s = slave(fmu_path("stops"))
+    stop_min, stop_max = s.vr["pivot.stop_min"], s.vr["pivot.stop_max"]
+    s.fmu.setupExperiment(startTime=0.0)
+    s.fmu.enterInitializationMode()
+    _raises_error(s.fmu.setReal, [stop_min, stop_max], [2.0, 1.5])
+    assert s.log.errors() == ["fmi2SetReal: pivot.stop_min must be less than pivot.stop_max, "
+                              "got 2 rad and 1.5 rad (from pivot.stop_max = 1.5 rad)"]
+    s.fmu.reset()
+    s.start({"pivot.stop_min": 2.0, "pivot.stop_max": 3.0, "pivot.initial_angle": 2.5})
+    s.fmu.doStep(0.0, 0.1)
+    s.fmu.reset()
+    s.fmu.setupExperiment(startTime=0.0)
+    s.fmu.enterInitializationMode()
+    s.fmu.setReal([stop_min], [2.0])  # stop_max is still 75 deg
+    _raises_error(s.fmu.exitInitializationMode)
+    assert s.log.errors()[-1] == ("pivot.stop_min must be less than pivot.stop_max, got 2 rad "
+                                  "and 1.309 rad")
+
+
 def test_state_functions_unsupported(fmu_path, slave):
     s = slave(fmu_path("pendulum"))
     s.start()

@@ -219,9 +219,12 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
         fmu->outputs = calloc(MODEL_NOUT + 1, sizeof(double));
         fmu->hinges = calloc(MODEL_NH + 1, sizeof(dep_hinge_state));
         fmu->input_values = calloc(2 * fmu_ni + 2, sizeof(double));
+        fmu->trial = calloc(MODEL_NP + 1, sizeof(double));
+        fmu->given = calloc(MODEL_NP + 1, 1);
     }
     if (fmu == NULL || fmu->name == NULL || fmu->params == NULL || fmu->outputs == NULL
-        || fmu->hinges == NULL || fmu->input_values == NULL) {
+        || fmu->hinges == NULL || fmu->input_values == NULL || fmu->trial == NULL
+        || fmu->given == NULL) {
         logger(environment, name, fmi2Error, "logError", "%s",
                "fmi2Instantiate: out of memory");
         fmi2FreeInstance(fmu);
@@ -247,6 +250,8 @@ void fmi2FreeInstance(fmi2Component c)
     free(fmu->outputs);
     free(fmu->hinges);
     free(fmu->input_values);
+    free(fmu->trial);
+    free(fmu->given);
     free(fmu);
 }
 

@@ -71,6 +71,8 @@ typedef struct fmu_instance {
     double *outputs;            /* nout, at `time` */
     dep_hinge_state *hinges;    /* nh, at `time` */
     double *input_values, *input_rates; /* fmu_ni: scratch for dep_set_inputs */
+    double *trial;              /* np: the parameters a fmi2SetReal would leave, checked first */
+    unsigned char *given;       /* np: the parameters that call sets */
 } fmu_instance;
 
 #if defined(__GNUC__) || defined(__clang__)
