@@ -278,3 +278,18 @@ def test_program_lists_parameters_and_helps(made):
     assert listing.returncode == 0 and "crank_pin.stiffness" in listing.stdout
     helped = subprocess.run([str(program), "--help"], capture_output=True, text=True)
     assert helped.returncode == 0 and "plain number in SI units" in helped.stdout
+
+
+def test_program_prints_numbers_as_python_does(made):
+    """--help's defaults and --list's values in the shortest form that reads back exactly,
+    Python's repr (0.01, not 0.01000000000000000021)."""
+    built, _, program = made
+    helped = subprocess.run([str(program), "--help"], capture_output=True, text=True).stdout
+    for option, value in (("--t-end", built.c.T_END), ("--dt-out", built.c.DT_OUT),
+                          ("--tol", built.c.TOL)):
+        (line,) = [line for line in helped.splitlines() if line.strip().startswith(option)]
+        assert line.endswith(f"(default {value!r})"), line
+    listing = subprocess.run([str(program), "--list"], capture_output=True, text=True).stdout
+    rows = {line.split()[0]: line.split()[-1] for line in listing.splitlines()[1:]}
+    for name, value in zip(built.c.PARAMETERS, built.c.PARAMETER_DEFAULTS):
+        assert rows[name] == repr(value), name

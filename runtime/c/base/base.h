@@ -4,7 +4,7 @@
  * (depsim.h) and nothing of the method.
  *
  *   arena.c    memory
- *   errors.c   error records and their text, repr(float)
+ *   errors.c   error records and their text, repr(float) (dep_repr, public)
  *   decimal.c  dep_format_double (public): "%.17g" without the C library's big numbers
  *   records.c  the (key, member) -> value entries of an event record
  */
@@ -42,7 +42,6 @@ int dep_solver_error(dep_error *error, int has_t, double t, const char *stage, c
                      const char *joint, int has_residual, double residual, const char *what,
                      const char *hint);
 int dep_plain_error(dep_error *error, int code, const char *message);
-void dep_repr(double value, char *out, size_t size); /* Python's repr(float) */
 
 /* ---- records.c: event record data --------------------------------------------------------- */
 

@@ -19,6 +19,8 @@
 #ifndef DEPSIM_H
 #define DEPSIM_H
 
+#include <stddef.h>
+
 #include "depsim_model.h"
 
 #define DEP_NAME_MAX 128   /* longest name (row, joint, event, data key) kept, with the NUL */
@@ -339,5 +341,10 @@ int dep_check_parameters(const dep_model *model, const double *p, const unsigned
    into out (DEP_FORMAT_SIZE chars); returns its length. decimal.c: several times faster. */
 #define DEP_FORMAT_SIZE 32
 int dep_format_double(double x, char *out);
+
+/* x as Python's repr(float) writes it: the shortest digits that read back exactly, placed as
+   Python places them ("0.05", "1e-09", "100.0", "inf", "nan"), into out (size bytes;
+   DEP_FORMAT_SIZE is enough). base/errors.c. */
+void dep_repr(double value, char *out, size_t size);
 
 #endif /* DEPSIM_H */

@@ -45,15 +45,19 @@ static int usage_error(const char *format, const char *a, const char *b)
 
 static void print_help(void)
 {
+    char t_end[DEP_FORMAT_SIZE], dt_out[DEP_FORMAT_SIZE], tol[DEP_FORMAT_SIZE];
+    dep_repr(depsim_model.t_end, t_end, sizeof t_end); /* 0.05, not 0.050000000000000003 */
+    dep_repr(depsim_model.dt_out, dt_out, sizeof dt_out);
+    dep_repr(depsim_model.tol, tol, sizeof tol);
     printf("usage: %s [--set NAME=VALUE]... [--t-end T] [--dt-out DT] [--tol TOL]\n"
            "       [--max-steps N] [--stepping auto|explicit|implicit] [-o CSV]\n"
            "       %s --list\n\n"
            "Simulate %s (%s) with the depsim C integrator.\n\n"
            "  --set NAME=VALUE  set a parameter, a plain number in SI units (no unit text);\n"
            "                    repeatable; --list shows the names and units\n"
-           "  --t-end T         end time, s (default %.17g)\n"
-           "  --dt-out DT       output interval, s (default %.17g)\n"
-           "  --tol TOL         integration tolerance (default %.17g)\n"
+           "  --t-end T         end time, s (default %s)\n"
+           "  --dt-out DT       output interval, s (default %s)\n"
+           "  --tol TOL         integration tolerance (default %s)\n"
            "  --max-steps N     the most steps a run may take (default %.0f); a stiff run\n"
            "                    that would need more stops at once\n"
            "  --stepping S      the ODE method: auto (default: explicit, linearly implicit\n"
@@ -63,15 +67,17 @@ static void print_help(void)
            "  --list            list the parameters and exit\n\n"
            "Exit codes: 0 ok, 1 failed to write or out of memory, 2 usage error, 3 solver "
            "failure.\n", program, program, depsim_model.name, depsim_model.description,
-           depsim_model.t_end, depsim_model.dt_out, depsim_model.tol, DEP_MAX_STEPS);
+           t_end, dt_out, tol, DEP_MAX_STEPS);
 }
 
 static void print_parameters(void)
 {
+    char value[DEP_FORMAT_SIZE];
     printf("%-28s %-14s %s\n", "parameter", "SI unit", "default");
     for (int i = 0; i < depsim_model.np; ++i) {
-        printf("%-28s %-14s %.17g\n", depsim_model.parameter_names[i],
-               depsim_model.parameter_units[i], depsim_model.parameter_defaults[i]);
+        dep_repr(depsim_model.parameter_defaults[i], value, sizeof value);
+        printf("%-28s %-14s %s\n", depsim_model.parameter_names[i],
+               depsim_model.parameter_units[i], value);
     }
     for (int i = 0; i < depsim_model.nfix; ++i) {
         printf("%-28s %-14s %d (structural: fixed in the model text)\n",
