@@ -40,8 +40,8 @@ LIBRARY_SOURCE = "targets/library.c"  # the public interface's entry points (dep
 PROGRAM_SOURCES = ("targets/program/main.c", "targets/program/program.h",
                    "targets/program/program_output.c", "targets/program/program_summary.c",
                    "targets/program/program_tables.c")
-FMU_SOURCES = ("targets/fmu/fmi2.c", "targets/fmu/fmi2_variables.c", "targets/fmu/fmi2.h",
-               "targets/fmu/fmu.h")
+FMU_SOURCES = ("targets/fmu/fmi2.c", "targets/fmu/fmi2_variables.c", "targets/fmu/fmi2_state.c",
+               "targets/fmu/fmi2.h", "targets/fmu/fmu.h")
 CORE_FOLDER = "core"  # where a C target folder or an FMU's sources/ hold the files of core_files()
 # -fno-math-errno: sqrt is the instruction, not a libm call that may set errno (nothing reads
 # it); 4 % faster on INTELSAT V and two_link_flex, outputs bit for bit the same.

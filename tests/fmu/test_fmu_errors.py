@@ -111,11 +111,29 @@ def test_a_range_between_two_parameters_is_checked_once_both_can_be_set(fmu_path
                                   "and 1.309 rad")
 
 
-def test_state_functions_unsupported(fmu_path, slave):
+def test_states_that_are_no_states_of_this_fmu(fmu_path, slave):
+    """Bytes of another FMU, or damaged, and a state pointer that is none: fmi2Error with the
+    reason, the instance as it was before the call otherwise."""
+    from fmpy.fmi2 import fmi2FMUstate
+
     s = slave(fmu_path("pendulum"))
     s.start()
-    _raises_error(s.fmu.getFMUstate)
-    assert "canGetAndSetFMUstate = false" in s.log.errors()[-1]
+    s.fmu.doStep(0.0, 0.1)
+    data = s.fmu.serializeFMUstate(s.fmu.getFMUstate())
+    t = slave(fmu_path("motor"))
+    t.start()
+    _raises_error(t.fmu.deSerializeFMUstate, data)
+    assert "are not a state of this FMU" in t.log.errors()[-1]
+    u = slave(fmu_path("pendulum"))
+    u.start()
+    damaged = bytearray(data)
+    damaged[-20] ^= 0xFF
+    _raises_error(u.fmu.deSerializeFMUstate, bytes(damaged))
+    assert "these bytes are not a saved state of this model's run" in u.log.errors()[-1]
+    v = slave(fmu_path("pendulum"))
+    v.start()
+    _raises_error(v.fmu.setFMUstate, fmi2FMUstate())  # NULL
+    assert "FMUstate is not a state of this FMU" in v.log.errors()[-1]
 
 
 def test_loops_that_cannot_close(fmu_path, slave):

@@ -21,6 +21,7 @@
 
 typedef struct dep_arena {
     void **blocks;
+    size_t *sizes; /* each block's bytes (a run's state saved: run/snapshot.c) */
     int count, capacity;
     int failed;
 } dep_arena;
@@ -30,6 +31,7 @@ void *dep_bytes(dep_arena *arena, size_t n); /* zeroed */
 /* not zeroed: for a large block whose parts are set before they are read (calloc clears
    memory that a long-lived process, a study's worker, has used before: megabytes a run) */
 void *dep_bytes_unset(dep_arena *arena, size_t n);
+void dep_arena_truncate(dep_arena *arena, int count); /* the blocks from `count` on freed */
 void dep_arena_free(dep_arena *arena);
 
 /* ---- errors.c ---------------------------------------------------------------------------- */
