@@ -165,6 +165,7 @@ static void put_back(dep_run *run, const dep_snapshot *s, dep_error *error)
         at += s->sizes[k];
     }
     dep_arena arena = run->arena;
+    arena.failed = s->image.arena.failed;
     *run = s->image;
     run->arena = arena;
     run->error = error;
