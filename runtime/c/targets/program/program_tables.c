@@ -398,8 +398,8 @@ static void python_path(const char *path, char *out, size_t size)
     }
 }
 
-/* The file's bytes (malloc'ed, NUL-terminated), or NULL after the message. */
-static char *read_file(const reader *r, const char *path, long *size)
+/* The file opened to read, or NULL after the message (tables._check_file). */
+static FILE *open_table(const reader *r, const char *path)
 {
     char message[PROGRAM_PATH_MAX + 120];
     int code = 0;
@@ -422,34 +422,44 @@ static char *read_file(const reader *r, const char *path, long *size)
                      strerror(code), r->path);
             fail(r, message);
         }
-        return NULL;
     }
+    return file;
+}
+
+/* The file's bytes (malloc'ed, NUL-terminated), or NULL after the message; a file over
+   MAX_TABLE_BYTES is not read beyond them. */
+static char *read_file(const reader *r, const char *path, long *size, int *status)
+{
+    FILE *file = open_table(r, path);
     char *text = NULL;
     size_t n = 0, capacity = 0;
-    int failed = 0;
+    int failed = file == NULL ? 3 : 0; /* 1: out of memory, 2: a read error */
     while (!failed && n <= (size_t)MAX_TABLE_BYTES) {
         if (n + 1 >= capacity) {
             capacity = capacity ? 2 * capacity : 65536;
             char *grown = realloc(text, capacity);
-            failed = grown == NULL;
-            text = grown != NULL ? grown : text;
-            if (failed) {
+            if (grown == NULL) {
+                failed = 1;
                 break;
             }
+            text = grown;
         }
         size_t got = fread(text + n, 1, capacity - n - 1, file);
         n += got;
+        failed = got == 0 && ferror(file) ? 2 : 0;
         if (got == 0) {
-            failed = ferror(file) ? 2 : 0;
             break;
         }
     }
-    fclose(file);
+    if (file != NULL) {
+        fclose(file);
+    }
     if (failed || n > (size_t)MAX_TABLE_BYTES) {
         free(text);
+        *status = failed == 1 ? EXIT_FAILED : EXIT_USAGE;
         if (failed == 1) {
             fprintf(stderr, "%s: error: out of memory\n", program);
-        } else {
+        } else if (failed != 3) {
             fail(r, failed ? "cannot read: an error while reading"
                            : "larger than the limit of 67,108,864 bytes for a time table; "
                              "thin it out");
@@ -467,11 +477,12 @@ int program_read_table(const char *name, const char *path, double **t, double **
     python_path(path, shown, sizeof shown);
     reader r = {name, shown, NULL, NULL, 0, 0};
     long size = 0;
-    char *text = read_file(&r, path, &size);
+    int status = EXIT_OK;
+    char *text = read_file(&r, path, &size, &status);
     if (text == NULL) {
-        return EXIT_USAGE;
+        return status;
     }
-    int status = parse(&r, text, size);
+    status = parse(&r, text, size);
     free(text);
     if (status != EXIT_OK) {
         free(r.t);
