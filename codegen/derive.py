@@ -83,6 +83,8 @@ class SymbolicSystem:
     stiffness_pattern: tuple[tuple[int, int], ...]  # NKZ structural non-zeros, row-major
     stiffness: ImmutableMatrix  # (NKZ, 1) K ~ -df/dq of the beams' elasticity there (N/m)
     stiffness_damping: ImmutableMatrix  # (NKZ, 1) D = -df/dqd of their damping there (N s/m)
+    limit_values: ImmutableMatrix  # (NLIM, 1) each range check's value (Model.limits)
+    limit_bounds: ImmutableMatrix  # (NLIM, 1) its bound (an ordered pair), else 0
 
 
 def column(values) -> ImmutableMatrix:
@@ -190,6 +192,9 @@ def derive(model: ir.Model) -> SymbolicSystem:
         loop_angles=_loop_targets(model, kin, 1), loop_rates=_loop_targets(model, kin, 2),
         stiffness_pattern=loads.stiffness.pattern, stiffness=column(loads.stiffness.K),
         stiffness_damping=column(loads.stiffness.D),
+        limit_values=column(kin.const(limit.expr) for limit in model.limits),
+        limit_bounds=column(kin.const(limit.bound) if limit.bound is not None else 0
+                            for limit in model.limits),
     )
 
 

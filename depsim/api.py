@@ -137,15 +137,18 @@ def _cache_dir(model: ir.Model, target: str) -> tuple[Path, str]:
 
 @functools.cache
 def _generator_digest() -> str:
-    """SHA-256 of the code generator's files, the model interface and the integrator core's C
+    """SHA-256 of the code generator's files, the model interface, the words of the range
+    checks (depsim.dsl.limits, which the generated code carries) and the integrator core's C
     sources, which a C folder carries (without importing them: sympy stays unloaded)."""
     import importlib.util
 
     digest = hashlib.sha256()
-    for package in ("depsim.codegen", "depsim.runtime"):
+    for package in ("depsim.codegen", "depsim.runtime", "depsim.dsl"):
         folder = Path(importlib.util.find_spec(package).submodule_search_locations[0])
         if package == "depsim.codegen":
             files = sorted(folder.glob("templates/**/*.j2")) + sorted(folder.glob("*.py"))
+        elif package == "depsim.dsl":
+            files = [folder / "limits.py"]
         else:
             files = [folder / "interface.py"] + sorted(
                 path for path in folder.glob("c/**/*") if path.suffix in (".c", ".h", ".inc"))

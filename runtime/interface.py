@@ -94,6 +94,8 @@ SIZES = (
     Size("nfix", "FIXED_PARAMETERS", "structural parameters (loop bounds, indices): fixed"),
     Size("nw", "RUN_VALUES", "run values outputs may use: nh + nd + 4"),
     Size("nsys", "SYSTEM_STATE", "the system's quantities of system_state"),
+    Size("nlim", "LIMITS", "range checks of the parameters (the model text's)"),
+    Size("nlimp", "LIMIT_PARAMETER_ROWS", "(range check, parameter) pairs it depends on"),
 )
 
 TABLES = (
@@ -145,6 +147,16 @@ TABLES = (
     Table("system_state_names", "SYSTEM_STATE", "const char *const", "nsys",
           "columns of system_state(): mass, com_x, com_y, momentum_x, momentum_y, "
           "angular_momentum (about the centre of mass)"),
+    Table("limit_names", "LIMITS", "const char *const", "nlim",
+          "what each range check tests, e.g. \"rod.length\", in the model text's order"),
+    Table("limit_kinds", "LIMIT_KINDS", "const int", "nlim",
+          "enum dep_limit_kind: value > 0, >= 0, != 0, < bound, >= bound"),
+    Table("limit_messages", "LIMIT_MESSAGES", "const char *const", "nlim",
+          "the check broken in words, a printf format of the value and the bound (%g each, "
+          "in that order; %% a percent sign)"),
+    Table("limit_parameter_rows", "LIMIT_PARAMETER_ROWS", "const int", "nlimp",
+          "row-major sorted: range check i depends on parameter j"),
+    Table("limit_parameter_cols", "LIMIT_PARAMETER_COLS", "const int", "nlimp", ""),
 )
 
 SETTINGS = (("t_end", "T_END"), ("tol", "TOL"), ("dt_out", "DT_OUT"))
@@ -196,6 +208,9 @@ FUNCTIONS = (
     Function("stiffness", ("q", "p"), (Output("K", ("nkz",)), Output("D", ("nkz",))),
              "The stiff forces' Jacobian of a model with beams, K ~ -df/dq and D ~ -df/dqd, at "
              "(STIFFNESS_ROWS, STIFFNESS_COLS)."),
+    Function("parameter_checks", ("p",), (Output("value", ("nlim",)),
+                                          Output("bound", ("nlim",))),
+             "Each range check's value and its bound (kinds below and at_least; else 0)."),
 )
 
 FUNCTION_NAMES = tuple(f.name for f in FUNCTIONS)

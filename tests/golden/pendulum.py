@@ -51,6 +51,11 @@ FIXED_PARAMETERS = ()
 FIXED_VALUES = ()
 RUN_VALUES = ('pivot.torque', 'work.friction', 'work.latch', 'work.impacts', 'energy.latch')
 SYSTEM_STATE = ('mass', 'com_x', 'com_y', 'momentum_x', 'momentum_y', 'angular_momentum')
+LIMITS = ('rod.length', 'rod.mass', 'rod.inertia', 'pivot.slip_rate')
+LIMIT_KINDS = (0, 0, 0, 0)
+LIMIT_MESSAGES = ('rod.length must be positive, got %g m', 'rod.mass must be positive, got %g kg', 'rod.inertia must be positive, got %g kg*m^2', 'pivot.slip_rate must be positive, got %g rad/s')
+LIMIT_PARAMETER_ROWS = (0, 1, 2, 2, 3)
+LIMIT_PARAMETER_COLS = (0, 1, 0, 1, 5)
 
 T_END = 10.0
 TOL = 1e-09
@@ -262,3 +267,14 @@ def stiffness(q, p):
     K = numpy.zeros((0,))
     D = numpy.zeros((0,))
     return K, D
+
+
+def parameter_checks(p):
+    """Each range check's value and its bound (kinds below and at_least; else 0)."""
+    value = numpy.zeros((4,))
+    bound = numpy.zeros((4,))
+    value[0] = p[0]
+    value[1] = p[1]
+    value[2] = (1/12)*(p[0]*p[0])*p[1]
+    value[3] = p[5]
+    return value, bound

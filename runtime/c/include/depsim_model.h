@@ -1,5 +1,5 @@
 /* depsim_model.h: what the integrator needs from a model. GENERATED from
- * depsim/runtime/interface.py and depsim/dsl/attributes.py
+ * depsim/runtime/interface.py, depsim/dsl/attributes.py and depsim/dsl/limits.py
  * (python -m depsim.codegen.interface_header); do not edit.
  *
  * A generated model.c defines one `const dep_model depsim_model` filled with its
@@ -40,6 +40,16 @@ enum dep_hinge_property {
      "slip_rate", \
      "release"}
 
+/* What a range check of the parameters asks of its value (limit_kinds; the
+   model text's checks, depsim.dsl.limits). */
+enum dep_limit_kind {
+    DEP_LIMIT_POSITIVE = 0,
+    DEP_LIMIT_NONNEGATIVE = 1,
+    DEP_LIMIT_NONZERO = 2,
+    DEP_LIMIT_BELOW = 3,
+    DEP_LIMIT_AT_LEAST = 4
+};
+
 typedef struct dep_model {
     int abi; /* DEP_MODEL_ABI of the header the model was compiled with */
 
@@ -69,6 +79,8 @@ typedef struct dep_model {
     int nfix; /* structural parameters (loop bounds, indices): fixed */
     int nw; /* run values outputs may use: nh + nd + 4 */
     int nsys; /* the system's quantities of system_state */
+    int nlim; /* range checks of the parameters (the model text's) */
+    int nlimp; /* (range check, parameter) pairs it depends on */
 
     /* tables (NULL when empty) */
     const char *const *coordinate_names; /* nq */
@@ -103,6 +115,11 @@ typedef struct dep_model {
     const int *fixed_values; /* nfix, their values */
     const char *const *run_value_names; /* nw, "<h>.torque" per hinge, "work.<dissipator>" per dissipator, then "work.friction", "work.latch", "work.impacts", "energy.latch" */
     const char *const *system_state_names; /* nsys, columns of system_state(): mass, com_x, com_y, momentum_x, momentum_y, angular_momentum (about the centre of mass) */
+    const char *const *limit_names; /* nlim, what each range check tests, e.g. "rod.length", in the model text's order */
+    const int *limit_kinds; /* nlim, enum dep_limit_kind: value > 0, >= 0, != 0, < bound, >= bound */
+    const char *const *limit_messages; /* nlim, the check broken in words, a printf format of the value and the bound (%g each, in that order; %% a percent sign) */
+    const int *limit_parameter_rows; /* nlimp, row-major sorted: range check i depends on parameter j */
+    const int *limit_parameter_cols; /* nlimp */
 
     /* the model's simulation settings */
     double t_end, tol, dt_out;
@@ -150,6 +167,8 @@ typedef struct dep_model {
     void (*dissipation)(const double *q, const double *qd, double t, const double *p, double *P);
     /* The stiff forces' Jacobian of a model with beams, K ~ -df/dq and D ~ -df/dqd, at (STIFFNESS_ROWS, STIFFNESS_COLS). */
     void (*stiffness)(const double *q, const double *p, double *K, double *D);
+    /* Each range check's value and its bound (kinds below and at_least; else 0). */
+    void (*parameter_checks)(const double *p, double *value, double *bound);
 } dep_model;
 
 #endif /* DEPSIM_MODEL_H */

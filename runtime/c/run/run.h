@@ -3,7 +3,7 @@
  * modes (mechanics.h), locates events on the dense output, applies what they change, and
  * records the outputs, the hinge loads, the event records and the deployment summary.
  *
- *   settings.c   the checks of a run's settings and input tables
+ *   settings.c   the checks of a run's settings, input tables and parameters' ranges
  *   tally.c      work and accuracy counters
  *   loads.c      hinge forces and lock torques from the multipliers; their peaks
  *   recording.c  outputs at the requested times; the result
@@ -15,6 +15,7 @@
  *   firing.c     events: located, the step re-taken to them, fired
  *   inputs.c     inputs: time tables piece by piece, values set from outside
  *   run.c        a run set up, begun, advanced, finished and freed
+ *   snapshot.c   a run's state saved and restored (its memory, or its calls replayed)
  */
 #ifndef DEPSIM_RUN_H
 #define DEPSIM_RUN_H
@@ -27,6 +28,9 @@
    round-off. open: dep_open's settings (t_end may be INFINITY; dt_out and tables unused). */
 int dep_check_settings(const dep_model *model, const double *p, const dep_settings *settings,
                        int open, dep_error *error);
+/* The model text's range checks of p (dep_check_parameters, depsim.h). */
+int dep_check_limits(const dep_model *model, const double *p, const unsigned char *only,
+                     dep_error *error);
 
 /* ---- loads.c: hinge forces and lock torques from the multipliers; their peaks -------------- */
 
@@ -126,6 +130,20 @@ typedef struct dep_prior {
     double *qd, *qdd;
 } dep_prior;
 
+/* The calls that brought an open run (dep_open) where it is: its parameters and settings at
+   the start, then each dep_advance (DEP_REPLAY_ADVANCE, t) and dep_set_inputs
+   (DEP_REPLAY_INPUTS, ni values, ni rates) that succeeded, as doubles. Repeated on a run
+   opened again, they give the same steps: the same state bit for bit (snapshot.c). */
+enum { DEP_REPLAY_ADVANCE = 1, DEP_REPLAY_INPUTS = 2 };
+
+typedef struct dep_replay {
+    int open;           /* 1: a dep_open run (the calls are kept) */
+    dep_settings settings;
+    double *p;          /* np */
+    double *entries;
+    long n, capacity;
+} dep_replay;
+
 struct dep_run { /* typedef in depsim.h */
     const dep_model *model;
     dep_settings settings;
@@ -170,6 +188,7 @@ struct dep_run { /* typedef in depsim.h */
     double h_next;   /* the step size to try next; 0: none yet (first_step) */
     int recording;   /* 1: outputs at the output times (dep_simulate); 0: dep_open's runs */
     int stopped;     /* a terminal event ended the run */
+    dep_replay replay;
 };
 
 
@@ -215,5 +234,31 @@ double dep_run_next_break(const dep_run *run, double t); /* where a table's piec
 int dep_run_apply_tables(dep_run *run);               /* the tables' pieces from now on */
 int dep_run_set_inputs(dep_run *run, const double *values, const double *rates,
                        dep_error *error);
+/* snapshot.c: a run's state saved and put back (dep_save, dep_restore, depsim.h) */
+struct dep_snapshot { /* typedef in depsim.h */
+    const dep_model *model;
+    /* the memory of the run: valid in the run it was taken of, while it is open */
+    const dep_run *run;        /* that run */
+    const void *core;          /* where this core's data lies: the same process and core */
+    struct dep_run image;      /* the run's struct */
+    int n_blocks;              /* its arena's blocks (-1: no memory, a snapshot read back
+                                  whose struct is not this core's) */
+    void **addresses;          /* n_blocks */
+    size_t *sizes;             /* n_blocks */
+    unsigned char *bytes;      /* their contents, one after the other */
+    size_t n_bytes;
+    /* the calls since dep_open, repeated on a run opened again */
+    dep_replay replay;
+};
+int dep_run_replay_open(dep_run *run); /* a dep_open run: keep its calls from now on */
+/* One call kept: `kind`, n values a and, for DEP_REPLAY_INPUTS, n values b (NULL: zeros). */
+int dep_run_replay_add(dep_run *run, int kind, const double *a, const double *b, int n);
+int dep_run_save(const dep_run *run, dep_snapshot **out, dep_error *error);
+int dep_run_restore(dep_run **run, const dep_snapshot *snapshot, dep_error *error);
+void dep_snapshot_destroy(dep_snapshot *snapshot);
+size_t dep_snapshot_bytes(const dep_snapshot *snapshot);
+void dep_snapshot_serialize(const dep_snapshot *snapshot, unsigned char *bytes);
+int dep_snapshot_deserialize(const dep_model *model, const unsigned char *bytes, size_t size,
+                             dep_snapshot **out, dep_error *error);
 
 #endif /* DEPSIM_RUN_H */

@@ -71,6 +71,10 @@ RUN_VALUES = ('pivot.torque',
               'work.latch',
               'work.impacts',
               'energy.latch')
+LIMITS = ("rod.length",)  # one range check: L > 0 (depsim.dsl.limits)
+LIMIT_KINDS = (0,)  # positive
+LIMIT_MESSAGES = ("rod.length must be positive, got %g m",)
+LIMIT_PARAMETER_ROWS = LIMIT_PARAMETER_COLS = (0,)
 
 
 def tree_values(p):
@@ -169,3 +173,7 @@ def hinge_gamma(q, qd, p):
 
 def hinge_properties(p):
     return np.full((1, len(HINGE_PROPERTIES)), np.nan)  # no latch, stop or friction
+
+
+def parameter_checks(p):
+    return np.array([p[0]]), np.zeros(1)

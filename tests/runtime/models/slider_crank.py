@@ -90,6 +90,8 @@ RUN_VALUES = ('crank_pin.torque',
               'work.latch',
               'work.impacts',
               'energy.latch')
+LIMITS = LIMIT_KINDS = LIMIT_MESSAGES = ()  # no range checks
+LIMIT_PARAMETER_ROWS = LIMIT_PARAMETER_COLS = ()
 
 
 def tree_values(p):
@@ -204,3 +206,7 @@ def hinge_gamma(q, qd, p):
 
 def hinge_properties(p):
     return np.full((3, len(HINGE_PROPERTIES)), np.nan)  # no latch, stop or friction
+
+
+def parameter_checks(p):
+    return np.zeros(0), np.zeros(0)
