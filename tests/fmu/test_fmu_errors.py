@@ -89,6 +89,26 @@ def test_values_out_of_the_models_ranges_are_refused_when_set(fmu_path, slave):
     assert s.real("crank") == 0.12
 
 
+def test_the_ranges_of_springs_particles_and_hold_downs_are_refused_when_set(fmu_path, slave):
+    """examples/free_flyer.dep: a spring's stiffness and free length, a member's mass and the
+    hold-downs' release (from the parameter t_release) are held to the model text's ranges as
+    any other value; the model's values then run."""
+    s = slave(fmu_path("free_flyer"))
+    _raises_error(s.fmu.setReal, [s.vr["kick.stiffness"]], [-1000.0])
+    assert s.log.errors() == ["fmi2SetReal: kick.stiffness must not be negative, got -1000 N/m"]
+    s.fmu.reset()
+    s.fmu.setupExperiment(startTime=0.0)
+    s.fmu.enterInitializationMode()
+    _raises_error(s.fmu.setReal, [s.vr["t_release"]], [-1.0])
+    assert s.log.errors()[-1] == (
+        "fmi2SetReal: h1.release must not be negative, got -1 s (from t_release = -1 s); "
+        "h2.release must not be negative, got -1 s (from t_release = -1 s)")
+    s.fmu.reset()
+    s.start({"kick.free_length": 0.1, "t_release": 0.5})
+    s.fmu.doStep(0.0, 0.1)
+    assert s.real("t_release") == 0.5
+
+
 def test_a_range_between_two_parameters_is_checked_once_both_can_be_set(fmu_path, slave):
     """stop_min < stop_max: one call setting both is checked at once; separate calls may pass
     through a pair out of order, and the pair is checked when initialization ends."""

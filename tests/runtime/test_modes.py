@@ -143,3 +143,20 @@ def test_two_link_flexible_pendulum_modes_converge_with_the_mesh(compiled):
     fine = compiled(text.replace("elements        = 2", "elements = 8")).modes(count=4)
     assert np.all(np.abs(fine.frequencies[:2]) < 1e-6)
     np.testing.assert_allclose(coarse.frequencies[2:], fine.frequencies[2:], rtol=1e-3)
+
+
+@pytest.mark.parametrize("item, message", [
+    ("tip.mass", "tip.mass must be positive, got -2 kg"),
+    ("boom.EI", "boom.EI must be positive, got -2 N*m^2")])
+def test_modes_holds_set_to_the_ranges_of_run(compiled, item, message):
+    """Simulator.modes(set=...) refuses a value out of the model's ranges as run(set=...)
+    does: the same UsageError, before anything runs."""
+    from depsim.errors import UsageError
+
+    sim = compiled(BEAM.format(elements=2, support=SUPPORTS["clamped_tip"]))
+    errors = []
+    for call in (sim.run, sim.modes):
+        with pytest.raises(UsageError) as caught:
+            call(set={item: -2.0})
+        errors.append(str(caught.value))
+    assert errors[0] == errors[1] == f"{message} (from {item}=-2.0)"
