@@ -5,7 +5,7 @@ C compiler and libm only (docs/c-target.md):
 
     model.c, model.h       the generated functions and the `depsim_model` description
     model_<name>.c         a long function of a large model, in a file of its own
-    main.c                 the standalone program (runtime/c/targets/program/main.c)
+    main.c, program*       the standalone program (runtime/c/targets/program)
     core/                  the integrator core as runtime/c lays it out (copied unchanged;
                            never generated per model)
     Makefile               builds the program `<name>` and the library `lib<name>.so`
@@ -23,7 +23,7 @@ from pathlib import Path
 from depsim.dsl import ir
 
 from depsim.runtime import interface
-from depsim.runtime.core import CFLAGS, CORE_FOLDER, PROGRAM_SOURCE, SOURCE_DIR, core_files
+from depsim.runtime.core import CFLAGS, CORE_FOLDER, PROGRAM_SOURCES, SOURCE_DIR, core_files
 
 from .c_printer import CPrinter, c_comment, c_double, c_file_stem, c_string
 from .derive import SymbolicSystem, derive
@@ -42,6 +42,8 @@ GENERATED_FILES = ("model.c", "model.h", "Makefile")
 OWN_FILE_CHARS = 50_000
 _INTERFACE = {f.name: f for f in interface.FUNCTIONS}
 PROGRAM = "main.c"  # the program's entry point in the folder, left out of the library
+# The program's files in the folder (main.c and those only it uses), left out of the library.
+PROGRAM_FILES = tuple(Path(name).name for name in PROGRAM_SOURCES)
 
 
 
@@ -112,14 +114,16 @@ class CModuleView:
     functions: tuple[CFunction, ...]
     files: tuple[CFile, ...]  # model.c, then model_<name>.c for each long function
     library_sources: tuple[str, ...]  # .c files of the library (model*.c and the integrator)
+    program_sources: tuple[str, ...]  # the program's own .c files but main.c
     headers: tuple[str, ...]  # every header the sources include (make's dependencies)
 
 
 def core_folder_files() -> dict[str, Path]:
     """The integrator's files a C target folder holds: their names in the folder (`main.c`,
-    `core/...`) and their sources in runtime/c (installed as package data of depsim.runtime)."""
+    `program_*.c`, `core/...`) and their sources in runtime/c (installed as package data of
+    depsim.runtime)."""
     files = {f"{CORE_FOLDER}/{name}": SOURCE_DIR / name for name in core_files()}
-    files[PROGRAM] = SOURCE_DIR / PROGRAM_SOURCE
+    files.update({Path(name).name: SOURCE_DIR / name for name in PROGRAM_SOURCES})
     return files
 
 
@@ -171,11 +175,13 @@ def c_view(view: ModuleView, runtime_files: tuple[str, ...]) -> CModuleView:
     files = (CFile("model.c", tuple(f for f in functions if f not in long), True),) + tuple(
         CFile(f"model_{f.name}.c", (f,), False) for f in long)
     sources = tuple(f.name for f in files) + tuple(sorted(
-        f for f in runtime_files if f.endswith(".c") and f != PROGRAM))
+        f for f in runtime_files if f.endswith(".c") and f not in PROGRAM_FILES))
+    program = tuple(sorted(f for f in runtime_files if f in PROGRAM_FILES and f != PROGRAM
+                           and f.endswith(".c")))
     headers = ("model.h",) + tuple(sorted(f for f in runtime_files
                                           if f.endswith((".h", ".inc"))))
     return CModuleView(m, c_file_stem(m.model_name), sizes, _tables(m), functions, files,
-                       sources, headers)
+                       sources, program, headers)
 
 
 def c_sources(model: ir.Model, system: SymbolicSystem | None = None) -> dict[str, str]:
@@ -226,4 +232,5 @@ def _write_if_changed(path: Path, text: str) -> None:
     path.write_text(text, encoding="utf-8", newline="\n")
 
 
-__all__ = ["compile_c", "c_sources", "c_target", "c_program_name", "core_folder_files"]
+__all__ = ["compile_c", "c_sources", "c_target", "c_program_name", "core_folder_files",
+           "PROGRAM_FILES"]

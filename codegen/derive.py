@@ -21,6 +21,7 @@ from .expr import to_sympy
 from .kinematics import Coordinates, Kinematics
 from .layout import build_coordinates
 from .loads import derive_loads
+from .system import SYSTEM_STATE, OutputScope, RowIndex, run_value_names
 
 
 
@@ -62,7 +63,10 @@ class SymbolicSystem:
     hinge_properties: ImmutableMatrix  # (NH, len(HINGE_PROPERTIES)), nan where not given
     coordinate_scales: ImmutableMatrix  # (NQ, 1): the model's length for a position, else 1
     output_names: tuple[str, ...]
-    outputs: ImmutableMatrix  # (NOUT, 1)
+    outputs: ImmutableMatrix  # (NOUT, 1), of q, qd, t, p, lam and w
+    w: tuple[sympy.Symbol, ...]  # NW run values an output may use (the core supplies them)
+    system_state: ImmutableMatrix  # (NSYS, 1): SYSTEM_STATE of q, qd, p
+    run_value_names: tuple[str, ...]  # their names (RUN_VALUES)
     energy_names: tuple[str, ...]
     energy: ImmutableMatrix  # (NE, 1), J
     dissipator_names: tuple[str, ...]
@@ -80,6 +84,8 @@ class SymbolicSystem:
     stiffness_pattern: tuple[tuple[int, int], ...]  # NKZ structural non-zeros, row-major
     stiffness: ImmutableMatrix  # (NKZ, 1) K ~ -df/dq of the beams' elasticity there (N/m)
     stiffness_damping: ImmutableMatrix  # (NKZ, 1) D = -df/dqd of their damping there (N s/m)
+    limit_values: ImmutableMatrix  # (NLIM, 1) each range check's value (Model.limits)
+    limit_bounds: ImmutableMatrix  # (NLIM, 1) its bound (an ordered pair), else 0
 
 
 def column(values) -> ImmutableMatrix:
@@ -153,6 +159,12 @@ def derive(model: ir.Model) -> SymbolicSystem:
     hinge_jacobian = jacobian(thetas, q)
     mass = _mass_matrix(model, kin)
     loads = derive_loads(model, kin, mass, list(thetas), hinge_jacobian)
+    run_values = run_value_names(model, loads.dissipator_names)
+    w = tuple(sympy.Symbol(f"@w{i}") for i in range(len(run_values)))
+    scope = OutputScope(kin, mass, lam, w,
+                        RowIndex({(row.joint, row.name.rsplit(".", 1)[1]): i
+                                  for i, row in enumerate(rows)}),
+                        loads.energies, loads.dissipator_names, loads.springs)
     return SymbolicSystem(
         name=model.name, coordinates=symbols.names, q=q, qd=symbols.qd, p=symbols.p, t=t,
         mass_matrix=mass, mass_pattern=_pattern(mass),
@@ -171,7 +183,9 @@ def derive(model: ir.Model) -> SymbolicSystem:
         hinge_properties=_hinge_properties(model, kin),
         coordinate_scales=_coordinate_scales(model, kin),
         output_names=tuple(o.name for o in model.outputs),
-        outputs=column(_output(o, kin) for o in model.outputs),
+        outputs=column(_output(o, scope) for o in model.outputs), w=w,
+        system_state=column(scope.system_quantity(name, None) for name in SYSTEM_STATE),
+        run_value_names=run_values,
         energy_names=loads.energy_names, energy=column(loads.energies),
         dissipator_names=loads.dissipator_names, dissipation=column(loads.dissipation),
         tree_joints=assembly.tree_joints, tree_held=assembly.held, v=assembly.v,
@@ -180,15 +194,18 @@ def derive(model: ir.Model) -> SymbolicSystem:
         loop_angles=_loop_targets(model, kin, 1), loop_rates=_loop_targets(model, kin, 2),
         stiffness_pattern=loads.stiffness.pattern, stiffness=column(loads.stiffness.K),
         stiffness_damping=column(loads.stiffness.D),
+        limit_values=column(kin.const(limit.expr) for limit in model.limits),
+        limit_bounds=column(kin.const(limit.bound) if limit.bound is not None else 0
+                            for limit in model.limits),
     )
 
 
 def _coordinate_scales(model: ir.Model, kin: Kinematics) -> ImmutableMatrix:
-    """Per coordinate, the size its errors are measured against (docs/method.md, 4): for a
-    position the model's length, the size of its largest member (a bar's or beam's length, a
-    body's largest distance from its centre of mass to a point, or its radius of gyration);
-    1 for an angle or a beam node's slope vector. So a mechanism scaled in size is integrated
-    to the same relative accuracy."""
+    """Per coordinate, the size its errors are measured against (docs/method.md, 6a): for a
+    position the model's length, the size of its largest part (a bar's or beam's length, a
+    body's largest distance from its centre of mass to a point, or its radius of gyration, a
+    spring's free length); 1 for an angle or a beam node's slope vector. So a mechanism scaled in size is integrated to the same relative
+    accuracy."""
     sizes = [kin.const(beam.length) for beam in model.beams]
     for body in model.bodies:
         if body.length is not None:
@@ -196,8 +213,12 @@ def _coordinate_scales(model: ir.Model, kin: Kinematics) -> ImmutableMatrix:
         sizes.append(sympy.sqrt(kin.const(body.inertia) / kin.const(body.mass)))
         sizes += [sympy.sqrt(kin.const(point.x) ** 2 + kin.const(point.y) ** 2)
                   for point in body.points]
+    sizes += [kin.const(spring.free_length) for spring in model.springs
+              if spring.free_length is not None]
+    sizes = [size for size in sizes if size != 0]
     length = sympy.Max(*sizes) if sizes else sympy.Integer(1)
     scales = [length, length, sympy.Integer(1)] * len(model.bodies)
+    scales += [length, length] * len(model.particles)  # the bodies' order of coordinates
     for beam in kin.beams:
         scales += beam.coordinate_sizes(length)
     return column(scales)
@@ -215,7 +236,7 @@ def _loop_targets(model: ir.Model, kin: Kinematics, held: int) -> ImmutableMatri
 _NOT_FINITE = (sympy.zoo, sympy.oo, -sympy.oo, sympy.nan)
 
 
-def _output(output: ir.Output, kin: Kinematics) -> sympy.Expr:
+def _output(output: ir.Output, kin: OutputScope) -> sympy.Expr:
     """An output's expression; E905 when it has no finite value in any state (the checker
     folds constants, but `1 / (h1 - h1)` becomes 1/0 only here, where h1 - h1 cancels)."""
     expr = to_sympy(output.expr, kin)
@@ -240,8 +261,10 @@ class _Row:
 
 
 def _constraints(model: ir.Model, kin: Kinematics, at_start) -> list[_Row]:
-    """Every constraint row, hinges then sliders; a hinge's x, y rows are its reaction force
-    (`at_start`: an expression at the initial placement, for a slider's relative angle)."""
+    """Every constraint row, hinges, sliders, then welds; a hinge's (and a weld's) x, y rows
+    are its reaction force (`at_start`: an expression at the initial placement, for a
+    slider's relative angle). A slider moving a particle has no angle row, nor a weld to
+    one: a particle has no angle."""
     rows = []
     for index, hinge in enumerate(model.hinges):
         ra, rb = kin.attachment_position(hinge.a), kin.attachment_position(hinge.b)
@@ -250,9 +273,18 @@ def _constraints(model: ir.Model, kin: Kinematics, at_start) -> list[_Row]:
     for index, slider in enumerate(model.sliders):
         (ux, uy), (dx, dy) = kin.slider_axis(index), kin.slider_offset(index)
         relative = kin.attachment_angle(slider.b) - kin.attachment_angle(slider.a)
-        rows += [_Row(f"{slider.name}.normal", slider.name, -1, index, ux * dy - uy * dx),
-                 _Row(f"{slider.name}.angle", slider.name, -1, index,
-                      relative - at_start(relative))]
+        rows.append(_Row(f"{slider.name}.normal", slider.name, -1, index, ux * dy - uy * dx))
+        if slider.b.member.kind is not ir.MemberKind.PARTICLE:
+            rows.append(_Row(f"{slider.name}.angle", slider.name, -1, index,
+                             relative - at_start(relative)))
+    for weld in model.welds:
+        ra, rb = kin.attachment_position(weld.a), kin.attachment_position(weld.b)
+        rows += [_Row(f"{weld.name}.x", weld.name, -1, -1, ra[0] - rb[0]),
+                 _Row(f"{weld.name}.y", weld.name, -1, -1, ra[1] - rb[1])]
+        if weld.rotational:
+            relative = kin.attachment_angle(weld.b) - kin.attachment_angle(weld.a)
+            rows.append(_Row(f"{weld.name}.angle", weld.name, -1, -1,
+                             relative - kin.const(weld.angle)))
     return rows
 
 
@@ -264,12 +296,17 @@ def _hinge_properties(model: ir.Model, kin: Kinematics) -> ImmutableMatrix:
 
 
 def _mass_matrix(model: ir.Model, kin: Kinematics) -> ImmutableSparseMatrix:
-    """Constant M: diag(m, m, J) per rigid body, then each beam's element mass matrix."""
+    """Constant M: diag(m, m, J) per rigid body, diag(m, m) per particle, then each beam's
+    element mass matrix."""
     entries, start = {}, 0
     for b in model.bodies:
         for k, value in enumerate((b.mass, b.mass, b.inertia)):
             entries[(start + k, start + k)] = kin.const(value)
         start += 3
+    for particle in model.particles:
+        for k in range(2):
+            entries[(start + k, start + k)] = kin.const(particle.mass)
+        start += 2
     for element in kin.beams:
         block = sympy.Matrix(element.mass_matrix)
         for (a, b), value in block.todok().items():

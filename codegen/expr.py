@@ -44,6 +44,8 @@ class Scope(Protocol):
     def hinge_angle(self, hinge: int, rate: bool) -> sympy.Expr: ...
     def slider_position(self, slider: int, rate: bool) -> sympy.Expr: ...
     def beam_quantity(self, beam: int, kind: str) -> sympy.Expr: ...
+    def joint_load(self, kind: str, index: int, quantity: str) -> sympy.Expr: ...
+    def system_quantity(self, quantity: str, point: ir.Attachment | None) -> sympy.Expr: ...
 
 
 def number(value: float) -> sympy.Expr:
@@ -82,6 +84,10 @@ def to_sympy(expr: ir.Expr, scope: Scope) -> sympy.Expr:
             return scope.slider_position(slider, rate)
         case ir.BeamQuantity(beam, kind):
             return scope.beam_quantity(beam, kind)
+        case ir.JointLoad(kind, index, quantity):
+            return scope.joint_load(kind, index, quantity)
+        case ir.SystemQuantity(quantity, point):
+            return scope.system_quantity(quantity, point)
     raise TypeError(f"not an IR expression node: {expr!r}")
 
 
@@ -96,3 +102,4 @@ class ConstantScope:
         raise TypeError("state reference in a constant expression (the checker should reject it)")
 
     body_coord = point_coord = hinge_angle = slider_position = beam_quantity = _state
+    joint_load = system_quantity = _state

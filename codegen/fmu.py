@@ -29,7 +29,7 @@ from depsim.dsl import ir
 
 from depsim.runtime.core import FMU_SOURCES, SOURCE_DIR
 
-from .c_emit import C_ENVIRONMENT, PROGRAM, c_target, core_folder_files
+from .c_emit import C_ENVIRONMENT, PROGRAM_FILES, c_target, core_folder_files
 from .c_printer import c_file_stem
 from .derive import SymbolicSystem
 from .errors import CodegenError
@@ -294,7 +294,7 @@ def fmu_sources(model: ir.Model, system: SymbolicSystem | None = None
     sources (`sources/` names, each compiled into the binary but the headers)."""
     m, generated = c_target(model, system)
     core = {name: path.read_text(encoding="utf-8")
-            for name, path in core_folder_files().items() if name != PROGRAM}
+            for name, path in core_folder_files().items() if name not in PROGRAM_FILES}
     sources = {name: text for name, text in generated.items() if name.startswith("model")}
     sources.update(core)
     sources.update({Path(name).name: (SOURCE_DIR / name).read_text(encoding="utf-8")

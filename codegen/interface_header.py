@@ -13,12 +13,13 @@ not the core's is refused when a run starts (system/hinges.c), never read as "no
 from __future__ import annotations
 
 from depsim.dsl.attributes import SPECS
+from depsim.dsl.limits import LIMIT_KINDS
 from depsim.runtime.interface import (ABI, FUNCTIONS, IDENTITY, SETTINGS, SIZES, TABLES,
                                       c_declaration)
 
 HEAD = """\
 /* depsim_model.h: what the integrator needs from a model. GENERATED from
- * depsim/runtime/interface.py and depsim/dsl/attributes.py
+ * depsim/runtime/interface.py, depsim/dsl/attributes.py and depsim/dsl/limits.py
  * (python -m depsim.codegen.interface_header); do not edit.
  *
  * A generated model.c defines one `const dep_model depsim_model` filled with its
@@ -50,6 +51,16 @@ def hinge_property_enum() -> list[str]:
     return lines
 
 
+def limit_kind_enum() -> list[str]:
+    """enum dep_limit_kind: what a range check of the parameters (limit_kinds) asks of its
+    value, in the order of depsim.dsl.limits.LIMIT_KINDS."""
+    lines = ["/* What a range check of the parameters asks of its value (limit_kinds; the",
+             "   model text's checks, depsim.dsl.limits). */", "enum dep_limit_kind {"]
+    lines += [f"    DEP_LIMIT_{kind.upper()} = {k}," for k, kind in enumerate(LIMIT_KINDS)]
+    lines[-1] = lines[-1].rstrip(",")
+    return lines + ["};"]
+
+
 def render_header() -> str:
     """runtime/c/include/depsim_model.h."""
     lines = HEAD.splitlines() + [
@@ -57,6 +68,8 @@ def render_header() -> str:
         f"#define DEP_MODEL_ABI {ABI} /* bumped whenever this struct changes */",
         "",
         *hinge_property_enum(),
+        "",
+        *limit_kind_enum(),
         "",
         "typedef struct dep_model {",
         "    int abi; /* DEP_MODEL_ABI of the header the model was compiled with */",

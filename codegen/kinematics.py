@@ -2,8 +2,10 @@
 
 `Kinematics` is the scope in which state expressions (outputs) are converted, and the source of
 every geometric quantity derive needs: attachment points, member angles, hinge angles, slider
-displacements. Rigid bodies use (x, y, phi) of the centre of mass; beams delegate to the beam
-element (codegen/beam.py)."""
+displacements, spring lengths. Rigid bodies use (x, y, phi) of the centre of mass, particles
+(x, y) (their angle is 0, as the ground's); beams delegate to the beam element
+(codegen/beam.py). Loads and the system's quantities in outputs come from `OutputScope`
+(codegen/system.py)."""
 
 from __future__ import annotations
 
@@ -61,10 +63,17 @@ class Kinematics:
         """(x, y, phi) of rigid body `body`."""
         return self.symbols.q[3 * body: 3 * body + 3]
 
+    def particle_symbols(self, particle: int) -> tuple[sympy.Symbol, ...]:
+        """(x, y) of particle `particle` (after the bodies' coordinates)."""
+        start = 3 * len(self.model.bodies) + 2 * particle
+        return self.symbols.q[start: start + 2]
+
     def member_symbols(self, member: ir.Member) -> tuple[sympy.Symbol, ...]:
-        """The coordinates of a rigid body or a beam."""
+        """The coordinates of a rigid body, a particle or a beam."""
         if member.kind is ir.MemberKind.BODY:
             return self.body_symbols(member.index)
+        if member.kind is ir.MemberKind.PARTICLE:
+            return self.particle_symbols(member.index)
         assert member.kind is ir.MemberKind.BEAM, "the ground has no coordinates"
         return self.symbols.beam_q[member.index]
 
@@ -76,7 +85,15 @@ class Kinematics:
     # -- members ---------------------------------------------------------------------------
 
     def local_point(self, member: ir.Member, name: str) -> Vector:
-        """A point of the ground (world frame) or of a rigid body (body frame, from the CM)."""
+        """A point of the ground (world frame) or of a rigid body or particle (body frame,
+        from the CM; `cm` is (0, 0))."""
+        zero = sympy.Integer(0)
+        if member.kind is ir.MemberKind.PARTICLE or (
+                member.kind is ir.MemberKind.BODY and name == "cm"):
+            if name == "cm":
+                return (zero, zero)
+            raise CodegenError("E904", f"'{self.member_name(member)}' has no point '{name}'",
+                               self.model.particles[member.index].span)
         element = self.model.ground if member.kind is ir.MemberKind.GROUND \
             else self.model.bodies[member.index]
         for point in element.points:
@@ -94,7 +111,8 @@ class Kinematics:
         """The member's name in the model text."""
         if member.kind is ir.MemberKind.GROUND:
             return "ground"
-        elements = self.model.bodies if member.kind is ir.MemberKind.BODY else self.model.beams
+        elements = {ir.MemberKind.BODY: self.model.bodies, ir.MemberKind.BEAM: self.model.beams,
+                    ir.MemberKind.PARTICLE: self.model.particles}[member.kind]
         return elements[member.index].name
 
     def point_position(self, member: ir.Member, name: str) -> Vector:
@@ -104,13 +122,16 @@ class Kinematics:
         local = self.local_point(member, name)
         if member.kind is ir.MemberKind.GROUND:
             return local
+        if member.kind is ir.MemberKind.PARTICLE:
+            return tuple(self.particle_symbols(member.index))
         x, y, phi = self.body_symbols(member.index)
         offset = rotate(phi, local)
         return (x + offset[0], y + offset[1])
 
     def angle(self, member: ir.Member, point: str) -> sympy.Expr:
-        """Angle of a member from +x at one of its points (a beam's tangent at an end)."""
-        if member.kind is ir.MemberKind.GROUND:
+        """Angle of a member from +x at one of its points (a beam's tangent at an end); 0 for
+        the ground and a particle."""
+        if member.kind in (ir.MemberKind.GROUND, ir.MemberKind.PARTICLE):
             return sympy.Integer(0)
         if member.kind is ir.MemberKind.BODY:
             return self.body_symbols(member.index)[2]
@@ -160,6 +181,17 @@ class Kinematics:
         slider = self.model.sliders[index]
         ra, rb = self.attachment_position(slider.a), self.attachment_position(slider.b)
         return (rb[0] - ra[0], rb[1] - ra[1])
+
+    def spring_offset(self, index: int) -> Vector:
+        """r_b - r_a of a spring's two points."""
+        spring = self.model.springs[index]
+        ra, rb = self.attachment_position(spring.a), self.attachment_position(spring.b)
+        return (rb[0] - ra[0], rb[1] - ra[1])
+
+    def spring_length(self, index: int) -> sympy.Expr:
+        """The distance between a spring's two points (m)."""
+        dx, dy = self.spring_offset(index)
+        return sympy.sqrt(dx**2 + dy**2)
 
     def slider_s(self, index: int) -> sympy.Expr:
         """Slider displacement s = axis . (r_b - r_a) (m)."""

@@ -1,5 +1,6 @@
-"""The coordinate layout: (x, y, phi) per rigid body in body order, then each beam's
-coordinates in beam order; and the ordered symbols q, q', p, t."""
+"""The coordinate layout: (x, y, phi) per rigid body in body order, (x, y) per particle in
+particle order, then each beam's coordinates in beam order; and the ordered symbols q, q', p,
+t."""
 
 from __future__ import annotations
 
@@ -14,6 +15,7 @@ from .expr import ConstantScope, to_sympy
 from .kinematics import Coordinates
 
 RIGID_COORDINATES = ("x", "y", "phi")
+PARTICLE_COORDINATES = ("x", "y")
 
 
 def _symbol(name: str) -> sympy.Symbol:
@@ -30,6 +32,7 @@ def build_coordinates(model: ir.Model) -> tuple[Coordinates, tuple[Any, ...]]:
     p = tuple(_symbol(param.name) for param in model.params)
     t = _symbol("t")
     names = [f"{body.name}.{c}" for body in model.bodies for c in RIGID_COORDINATES]
+    names += [f"{p.name}.{c}" for p in model.particles for c in PARTICLE_COORDINATES]
     q = [_symbol(name) for name in names]
     beam_q, elements = [], []
     scope = ConstantScope(p, t)

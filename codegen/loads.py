@@ -3,9 +3,10 @@
 Potentials (hinge springs, cable loops, gravity, beam elasticity) give f = -dV/dq exactly, so
 a free conservative model conserves energy. Hinge damping is a torque tau on the hinge angle
 theta, mapped to the generalized force Q = (d theta/dq)^T tau; so is an input torque, and an
-input force F at a point r(q) gives Q = (dr/dq)^T F. Hinge Coulomb friction is not
-here: its torque depends on the hinge's mode (sliding, stuck, locked by a latch or stop), so
-the integrator applies it from hinge_properties (docs/deployment.md)."""
+input force F at a point r(q) gives Q = (dr/dq)^T F. A point-to-point spring-damper's force F
+along its line gives Q = F dL/dq (`spring_law`, its one definition). Hinge Coulomb friction is
+not here: its torque depends on the hinge's mode (sliding, stuck, locked by a latch or stop),
+so the integrator applies it from hinge_properties (docs/deployment.md)."""
 
 from __future__ import annotations
 
@@ -28,6 +29,7 @@ class Loads:
     dissipation: tuple[sympy.Expr, ...]
     force: tuple[sympy.Expr, ...]
     stiffness: Stiffness
+    springs: tuple = ()  # SpringLaw of each point-to-point spring
 
 
 @dataclass(frozen=True)
@@ -49,8 +51,8 @@ def sparse_rows(matrix: sympy.SparseMatrix) -> list[dict[int, sympy.Expr]]:
     return rows
 
 
-def implicit_stiffness(model: ir.Model, kin: Kinematics,
-                       jacobian: sympy.SparseMatrix) -> Stiffness:
+def implicit_stiffness(model: ir.Model, kin: Kinematics, jacobian: sympy.SparseMatrix,
+                       springs=()) -> Stiffness:
     """Each beam's J^T K J (BeamSymbolic.stiffness) placed at its coordinates and beta times
     it for a damped beam (its damping force is exactly -beta J^T K J qd); each hinge spring
     and damper k g g^T, c g g^T with g = d theta / dq; each cable k g g^T with g the gradient
@@ -87,10 +89,69 @@ def implicit_stiffness(model: ir.Model, kin: Kinematics,
             for j, value in rows[term.hinge].items():
                 gradient.setdefault(j, []).append(kin.const(term.coefficient) * value)
         outer(K, kin.const(cable.stiffness), {j: sympy.Add(*v) for j, v in gradient.items()})
+    for spring, law in zip(model.springs, springs):  # k g g^T, c g g^T, g = dL/dq
+        if spring.stiffness is not None:
+            outer(K, kin.const(spring.stiffness), law.gradient)
+        if spring.damping is not None:
+            outer(D, kin.const(spring.damping), law.gradient)
     pattern = tuple(sorted(set(K) | set(D)))
     zero = sympy.Integer(0)
     return Stiffness(pattern, tuple(sympy.Add(*K.get(place, [zero])) for place in pattern),
                      tuple(sympy.Add(*D.get(place, [zero])) for place in pattern))
+
+
+@dataclass(frozen=True)
+class SpringLaw:
+    """A point-to-point spring-damper at the state (ir.Spring): its length L (m) and rate
+    dL/dt (m/s), its force along the line (N, positive pushing the points apart), its
+    gradient dL/dq (coordinate index -> entry), its potential (J) and the power it removes
+    (W, >= 0).
+
+        F_both = preload - stiffness (L - free_length) - damping dL/dt
+        acts both: F = F_both;  push: F = max(F_both, 0) while L < free_length, else 0;
+        pull: F = min(F_both, 0) while L > free_length, else 0
+        V = stiffness (L - free_length)^2 / 2 - preload (L - free_length) where it acts
+        removed = (F_elastic - F) dL/dt, F_elastic the part without damping where it acts
+
+    so that d(T + V)/dt + removed = 0 for the spring alone."""
+
+    length: sympy.Expr
+    rate: sympy.Expr
+    force: sympy.Expr
+    gradient: dict[int, sympy.Expr]
+    potential: sympy.Expr
+    removed: sympy.Expr
+    dissipates: bool  # damping, or a one-sided range (its force may be clipped)
+
+
+def spring_law(kin: Kinematics, index: int) -> SpringLaw:
+    """The law of the model's spring `index` (its one definition: forces, energy, outputs)."""
+    spring = kin.model.springs[index]
+    q = kin.symbols.q
+    position = {s: j for j, s in enumerate(q)}
+    length = kin.spring_length(index)
+    gradient = {position[s]: length.diff(s)
+                for s in sorted(length.free_symbols & position.keys(), key=position.get)}
+    rate = sympy.Add(*(g * kin.symbols.qd[j] for j, g in gradient.items()))
+    const = {name: kin.const(getattr(spring, name)) if getattr(spring, name) is not None
+             else sympy.Integer(0) for name in ("stiffness", "preload", "damping")}
+    stretch = length - kin.const(spring.free_length) if spring.free_length is not None \
+        else length
+    elastic = const["preload"] - const["stiffness"] * stretch
+    potential = const["stiffness"] * stretch**2 / 2 - const["preload"] * stretch
+    both = elastic - const["damping"] * rate
+    if spring.acts is ir.SpringActs.BOTH:
+        force, removed = both, const["damping"] * rate**2
+    else:
+        push = spring.acts is ir.SpringActs.PUSH
+        acting = stretch < 0 if push else stretch > 0
+        clipped = sympy.Max(both, 0) if push else sympy.Min(both, 0)
+        zero = sympy.Integer(0)
+        force = sympy.Piecewise((clipped, acting), (zero, True))
+        potential = sympy.Piecewise((potential, acting), (zero, True))
+        removed = sympy.Piecewise(((elastic - clipped) * rate, acting), (zero, True))
+    return SpringLaw(length, rate, force, gradient, potential, removed,
+                     spring.damping is not None or spring.acts is not ir.SpringActs.BOTH)
 
 
 def derive_loads(model: ir.Model, kin: Kinematics, mass_matrix: sympy.SparseMatrix,
@@ -101,19 +162,27 @@ def derive_loads(model: ir.Model, kin: Kinematics, mass_matrix: sympy.SparseMatr
                           for (i, j), value in sorted(mass_matrix.todok().items())))
     potentials = _potentials(model, kin, thetas)
     force = _potential_force(kin, potentials)
+    springs = [spring_law(kin, index) for index in range(len(model.springs))]
+    for law in springs:  # the springs' whole force: their potentials are not differentiated
+        for j, g in law.gradient.items():
+            force[j] += law.force * g
+    potentials += [(f"spring.{s.name}", law.potential) for s, law in zip(model.springs, springs)]
     rows = sparse_rows(jacobian)
     dissipators = _hinge_dissipators(model, kin, rows) + _beam_dissipators(model, kin) \
         + _input_loads(model, kin, rows)
     for _, generalized, _power in dissipators:
         for j, g in generalized.items():
             force[j] += g
+    dissipators += [(f"damping.{s.name}", {}, law.removed)
+                    for s, law in zip(model.springs, springs) if law.dissipates]
     return Loads(
         energy_names=("kinetic",) + tuple(name for name, _ in potentials),
         energies=(kinetic,) + tuple(energy for _, energy in potentials),
         dissipator_names=tuple(name for name, _, _ in dissipators),
         dissipation=tuple(power for _, _, power in dissipators),
         force=tuple(force),
-        stiffness=implicit_stiffness(model, kin, jacobian),
+        stiffness=implicit_stiffness(model, kin, jacobian, springs),
+        springs=tuple(springs),
     )
 
 
@@ -166,6 +235,9 @@ def _gravity(model: ir.Model, kin: Kinematics) -> sympy.Expr:
     for index, body in enumerate(model.bodies):
         x, y, _ = kin.body_symbols(index)
         energy -= kin.const(body.mass) * (gx * x + gy * y)
+    for index, particle in enumerate(model.particles):
+        x, y = kin.particle_symbols(index)
+        energy -= kin.const(particle.mass) * (gx * x + gy * y)
     for element in kin.beams:
         energy += element.gravity_energy(gx, gy)
     return energy

@@ -13,11 +13,14 @@ import sympy
 
 from depsim.dsl import ir
 from depsim.dsl.attributes import HINGE_PROPERTIES
+from depsim.dsl.evaluate import param_indices
+from depsim.dsl.limits import LIMIT_KINDS, message_format
 from depsim.runtime import interface
 
 from .assembly import Group
 from .derive import SymbolicSystem, column
 from .printing import LoweringError, SlotPrinter
+from .system import SYSTEM_STATE
 
 PrinterFactory = Callable[..., SlotPrinter]  # (slots, temporaries) -> printer
 
@@ -135,7 +138,9 @@ def function_specs(system: SymbolicSystem) -> tuple[FunctionSpec, ...]:
         "hinge_gamma": (s.hinge_gamma,), "hinge_properties": (s.hinge_properties,),
         "outputs": (s.outputs,), "energy": (s.energy,), "dissipation": (s.dissipation,),
         "coordinate_scales": (s.coordinate_scales,),
+        "system_state": (s.system_state,),
         "stiffness": (s.stiffness, s.stiffness_damping),
+        "parameter_checks": (s.limit_values, s.limit_bounds),
     }
     return tuple(FunctionSpec(f.name, f.args, f.summary,
                               tuple((r.name, m) for r, m in zip(f.results, matrices[f.name])),
@@ -147,7 +152,7 @@ def function_specs(system: SymbolicSystem) -> tuple[FunctionSpec, ...]:
 def slots(system: SymbolicSystem, args: tuple[str, ...]) -> dict[sympy.Symbol, str]:
     """Input symbol -> array slot text (`q[3]`, `p[7]`, `t`) for a function's arguments."""
     arrays = {"v": system.v, "vd": system.vd, "q": system.q, "qd": system.qd, "p": system.p,
-              "lam": system.lam}
+              "lam": system.lam, "w": system.w}
     table = {system.t: "t"} if "t" in args else {}
     for name in args:
         table.update({s: f"{name}[{i}]" for i, s in enumerate(arrays.get(name, ()))})
@@ -315,6 +320,20 @@ def _require(name: str, unknown: set) -> None:
         raise LoweringError(f"{name}: expression depends on {listed}, not an input of {name}")
 
 
+def _limit_tables(model: ir.Model) -> dict[str, tuple]:
+    """The model text's range checks (Model.limits) as the interface's tables: what each
+    tests, its kind, its message (depsim.dsl.limits, the one wording) and the parameters it
+    depends on (a sparse pattern, row-major)."""
+    pairs = sorted((i, j) for i, limit in enumerate(model.limits)
+                   for j in param_indices(limit.expr) | (
+                       param_indices(limit.bound) if limit.bound is not None else set()))
+    return {"LIMITS": tuple(limit.what for limit in model.limits),
+            "LIMIT_KINDS": tuple(LIMIT_KINDS.index(limit.kind) for limit in model.limits),
+            "LIMIT_MESSAGES": tuple(message_format(limit) for limit in model.limits),
+            "LIMIT_PARAMETER_ROWS": tuple(i for i, _ in pairs),
+            "LIMIT_PARAMETER_COLS": tuple(j for _, j in pairs)}
+
+
 def lower_module(model: ir.Model, system: SymbolicSystem, printer: PrinterFactory,
                  depsim_version: str, ieee_printer: PrinterFactory | None = None) -> ModuleView:
     """The whole module's view-model: header constants and every function (those of
@@ -343,6 +362,8 @@ def lower_module(model: ir.Model, system: SymbolicSystem, printer: PrinterFactor
         "MASS_COLS": tuple(j for _, j in system.mass_pattern),
         "FIXED_PARAMETERS": tuple(f.name for f in model.structural),
         "FIXED_VALUES": tuple(f.value for f in model.structural),
+        "RUN_VALUES": system.run_value_names, "SYSTEM_STATE": SYSTEM_STATE,
+        **_limit_tables(model),
     }
     tables = tuple(TableView(t.constant, t.field, t.ctype, values[t.constant])
                    for t in interface.TABLES)

@@ -86,3 +86,17 @@ class IeeePrinter(SlotPrinter, NumPyPrinter):
     def __init__(self, slots: Mapping[sympy.Symbol, str],
                  temporaries: Collection[sympy.Symbol] = ()):
         super().__init__(slots, temporaries, {"strict": True})
+
+    def _print_Max(self, expr: sympy.Max) -> str:
+        return self._nested("numpy.fmax", expr.args)
+
+    def _print_Min(self, expr: sympy.Min) -> str:
+        return self._nested("numpy.fmin", expr.args)
+
+    def _nested(self, function: str, args) -> str:
+        """fmax(a, fmax(b, c)): C's fmax and fmin of two arguments (a nan argument is left
+        out, as C's are)."""
+        text = self._print(args[-1])
+        for arg in reversed(args[:-1]):
+            text = f"{function}({self._print(arg)}, {text})"
+        return text

@@ -137,15 +137,18 @@ def _cache_dir(model: ir.Model, target: str) -> tuple[Path, str]:
 
 @functools.cache
 def _generator_digest() -> str:
-    """SHA-256 of the code generator's files, the model interface and the integrator core's C
+    """SHA-256 of the code generator's files, the model interface, the words of the range
+    checks (depsim.dsl.limits, which the generated code carries) and the integrator core's C
     sources, which a C folder carries (without importing them: sympy stays unloaded)."""
     import importlib.util
 
     digest = hashlib.sha256()
-    for package in ("depsim.codegen", "depsim.runtime"):
+    for package in ("depsim.codegen", "depsim.runtime", "depsim.dsl"):
         folder = Path(importlib.util.find_spec(package).submodule_search_locations[0])
         if package == "depsim.codegen":
             files = sorted(folder.glob("templates/**/*.j2")) + sorted(folder.glob("*.py"))
+        elif package == "depsim.dsl":
+            files = [folder / "limits.py"]
         else:
             files = [folder / "interface.py"] + sorted(
                 path for path in folder.glob("c/**/*") if path.suffix in (".c", ".h", ".inc"))
@@ -256,6 +259,63 @@ class Simulator:
         return simulate(self.module, self.parameters(set), t_end=t_end, dt_out=dt_out,
                         tol=tol, progress=progress, max_steps=max_steps, inputs=inputs,
                         stepping=stepping)
+
+
+    def modes(self, at: str | float = "t=0", count: int | None = None,
+              set: Mapping[str, float | str] | None = None, t_end: float | None = None,
+              tol: float | None = None):
+        """The natural frequencies (Hz) and mode shapes of the mechanism linearised at `at`:
+        "t=T" (or a time T in s: the state the run reaches at T, its locked hinges locked)
+        or "deployed" (the run to its end must latch every latch; each latched hinge locked
+        at its latch angle, compliant latches as springs, at the static equilibrium near the
+        final state). `count`: the lowest so many. Returns depsim.runtime.modes.Modes
+        (docs/modes.md)."""
+        from depsim.runtime import simulate
+        from depsim.runtime.modes import deployed_state, modes, state_of
+
+        p = self.parameters(set)
+        moment = parse_moment(at)
+        if moment is None:
+            result = simulate(self.module, p, t_end=t_end, tol=tol)
+            if not result.deployment.deployed:
+                open_ = [h for h in result.deployment.latch_hinges
+                         if h not in {r.hinge for r in result.deployment.latches}]
+                why = ("the model has no latch" if result.deployment.deployed is None else
+                       f"{', '.join(open_)} still open at t = {result.t_end:g} s")
+                raise UsageError(f"--at deployed: the run does not deploy ({why}); give a "
+                                 "longer --t-end, or --at t=T")
+            state = deployed_state(result, self.module)
+            last = result.deployment.time
+            return modes(self.module, p, state, f"deployed (last latch at t = {last:.6g} s; "
+                         f"state at t = {result.t_end:g} s, moved to its equilibrium)",
+                         equilibrium=True, count=count)
+        short = moment == 0.0
+        horizon = 1e-6 if short else moment
+        result = simulate(self.module, p, t_end=horizon, dt_out=horizon, tol=tol)
+        row = 0 if short else len(result.times) - 1
+        return modes(self.module, p, state_of(result, self.module, row), f"t = {moment:g} s",
+                     count=count)
+
+
+def parse_moment(at: str | float) -> float | None:
+    """`at` of Simulator.modes as a time in s, or None for "deployed"; UsageError if
+    neither ("t=12.5", "t=12.5 s", "12.5", 12.5)."""
+    if isinstance(at, (int, float)) and not isinstance(at, bool):
+        value = float(at)
+    elif isinstance(at, str) and at.strip() == "deployed":
+        return None
+    else:
+        text = str(at).strip()
+        text = text[2:] if text.startswith("t=") else text
+        try:
+            value, dim = parse_quantity(text)
+        except ValueError as exc:
+            raise UsageError(f"--at {at}: expected t=TIME (s) or deployed ({exc})") from None
+        if dim not in (ir.Dim(), ir.Dim(time=1)):
+            raise UsageError(f"--at {at}: a time is in s")
+    if not (math.isfinite(value) and value >= 0):
+        raise UsageError(f"--at {at}: the time must be zero or positive")
+    return value
 
 
 def _range_check(model: ir.Model, varied: list):

@@ -136,6 +136,31 @@ def _parser() -> argparse.ArgumentParser:
     _add_elements(run)
     run.set_defaults(command=_run)
 
+    modes = commands.add_parser("modes", help="natural frequencies and mode shapes of the "
+                                              "mechanism at a state (linearised)")
+    modes.add_argument("model", help="the .dep file")
+    modes.add_argument("--at", default="t=0", metavar="t=T|deployed",
+                       help="the state: t=T (the run's state at T s, locked hinges locked; "
+                            "default t=0) or deployed (every latch latched and locked, at the "
+                            "equilibrium near the end of the run)")
+    modes.add_argument("--count", type=_positive_int, metavar="N",
+                       help="the lowest N modes (default: all)")
+    modes.add_argument("--target", choices=["numpy", "c"], default="c",
+                       help="c (default: compiled model) or numpy")
+    modes.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                       help="override a parameter, units allowed; repeatable")
+    modes.add_argument("--t-end", type=_positive_float, metavar="T",
+                       help="end time of the run for --at deployed (s)")
+    modes.add_argument("--tol", type=_tolerance, metavar="TOL",
+                       help="integration tolerance of the run, between 0 and 1")
+    modes.add_argument("--json", metavar="JSON", help="write the frequencies and mode shapes")
+    modes.add_argument("--plot", metavar="PNG", help="draw the mode shapes (.png, .pdf, .svg, "
+                                                     "...: the extension decides)")
+    modes.add_argument("--animate", metavar="GIF", help="the modes oscillating, one after the "
+                                                        "other (.gif; .mp4 with ffmpeg)")
+    _add_elements(modes)
+    modes.set_defaults(command=_modes)
+
     sweep = commands.add_parser("sweep", help="run a parameter study (grid or Monte Carlo)")
     sweep.add_argument("model", help="the .dep file")
     sweep.add_argument("--target", choices=["numpy", "c"], default="c",
@@ -349,6 +374,8 @@ def _run(args) -> int:
     tables = _input_tables(args.input)
     model = _load(args)
     _check_output_times(model, args)
+    # a free-flying model: its momentum and energy balance in the summary and the report
+    floating = bool(model.ir.free_joints) or any(w.code == "W001" for w in model.ir.warnings)
     sim = model.compile(target=args.target)
     try:
         result = sim.run(set=settings, t_end=args.t_end, dt_out=args.dt_out, tol=args.tol,
@@ -360,7 +387,7 @@ def _run(args) -> int:
         if args.out:
             result.to_csv(args.out)
         if args.summary:
-            result.to_json(args.summary)
+            result.to_json(args.summary, system=floating)
         if args.plot:
             from depsim.runtime.plot import plot_outputs
             plot_outputs(result, args.plot)
@@ -369,8 +396,39 @@ def _run(args) -> int:
             animate(result, sim.module, args.animate,
                     outlines=sim.outlines(result.parameters))
     print(result.report())
+    if floating and result.system_line():
+        print(result.system_line())
     print(f"  code: reused from the cache ({sim.cached}): nothing derived" if sim.cached
           else "  code: derived and generated (kept in the cache for the next run)")
+    return EXIT_OK
+
+
+def _modes(args) -> int:
+    from depsim.api import parse_moment
+    from depsim.runtime.animation import check_animation_path
+    from depsim.runtime.output import all_or_none, check_output
+    from depsim.runtime.plot import PLOT_FORMATS
+
+    _check_outputs(args.model, [("--json", args.json, check_output),
+                                ("--plot", args.plot, lambda p: check_output(p, PLOT_FORMATS)),
+                                ("--animate", args.animate, check_animation_path)])
+    parse_moment(args.at)  # a bad --at before anything is compiled
+    settings = _settings(args.set)
+    model = _load(args)
+    sim = model.compile(target=args.target)
+    found = sim.modes(at=args.at, count=args.count, set=settings, t_end=args.t_end,
+                      tol=args.tol)
+    p = sim.parameters(settings)
+    with all_or_none():
+        if args.json:
+            found.to_json(args.json)
+        if args.plot:
+            from depsim.runtime.mode_figures import plot_modes
+            plot_modes(found, sim.module, args.plot, p, outlines=sim.outlines(p))
+        if args.animate:
+            from depsim.runtime.mode_figures import animate_modes
+            animate_modes(found, sim.module, args.animate, p, outlines=sim.outlines(p))
+    print(found.table())
     return EXIT_OK
 
 

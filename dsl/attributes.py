@@ -44,12 +44,16 @@ class AttrSpec:
 
 _STIFFNESS = Dim(mass=1, length=2, time=-2, angle=-1)
 _DAMPING = Dim(mass=1, length=2, time=-1, angle=-1)
+_LINEAR_STIFFNESS = Dim(mass=1, time=-2)  # N/m
+_LINEAR_DAMPING = Dim(mass=1, time=-1)  # N*s/m
+_FORCE = Dim(mass=1, length=1, time=-2)
 
 SPECS: dict[str, tuple[AttrSpec, ...]] = {
     "bar": (AttrSpec("length", LENGTH, True, "positive"), AttrSpec("mass", MASS, True, "positive"),
             AttrSpec("inertia", Dim(mass=1, length=2), True, "positive")),
     "body": (AttrSpec("mass", MASS, True, "positive"),
              AttrSpec("inertia", Dim(mass=1, length=2), True, "positive")),
+    "particle": (AttrSpec("mass", MASS, True, "positive"),),
     "beam": (AttrSpec("length", LENGTH, True, "positive"),
              AttrSpec("EI", Dim(mass=1, length=3, time=-2), True, "positive"),
              AttrSpec("EA", Dim(mass=1, length=1, time=-2), True, "positive"),
@@ -80,8 +84,27 @@ SPECS: dict[str, tuple[AttrSpec, ...]] = {
                  meaning="damping of a flexible latch; needs `latch` (E028)"),
         AttrSpec("stop_min", ANGLE, column=3, meaning="one-sided lower limit of theta"),
         AttrSpec("stop_max", ANGLE, column=4,
-                 meaning="one-sided upper limit of theta, above `stop_min` (E028)")),
+                 meaning="one-sided upper limit of theta, above `stop_min` (E028)"),
+        AttrSpec("release", TIME, False, "nonnegative", column=8,
+                 meaning="held locked from t = 0 until this time, then released (a "
+                         "hold-down)")),
     "slider": (AttrSpec("axis", None, True),),
+    "weld": (AttrSpec("angle", ANGLE, meaning="the relative angle it holds, angle(B) - "
+                                              "angle(A); default 0"),),
+    "free": (),
+    # A point-to-point spring-damper (ir.Spring); `acts` is read by dedicated code.
+    "spring": (AttrSpec("stiffness", _LINEAR_STIFFNESS, False, "nonnegative",
+                        meaning="force per length change: `-stiffness (L - free_length)`"),
+               AttrSpec("free_length", LENGTH, False, "nonnegative",
+                        meaning="the length at which the spring's force is its preload"),
+               AttrSpec("preload", _FORCE, meaning="the force at the free length, positive "
+                                                   "pushing the points apart"),
+               AttrSpec("damping", _LINEAR_DAMPING, False, "nonnegative",
+                        meaning="viscous force `-damping dL/dt`"),
+               AttrSpec("acts", None, meaning="`push`: only while shorter than its free "
+                                              "length, never pulling (a kick-off spring); "
+                                              "`pull`: only while longer, never pushing (a "
+                                              "cable); default both")),
     "cable": (AttrSpec("stiffness", _STIFFNESS, True, "nonnegative"),
               AttrSpec("angles", None, True)),
     "simulate": (AttrSpec("t_end", TIME, False, "positive"),
@@ -90,6 +113,10 @@ SPECS: dict[str, tuple[AttrSpec, ...]] = {
     "ground": (),
 }
 _POINTS_ALLOWED = ("bar", "body", "ground")
+# What to say when a block that takes no attributes is given one.
+_NO_ATTRIBUTES = {"free": "a free joint takes no attributes: give its initial position and "
+                          "motion in `initial` (NAME.x, NAME.y, NAME.angle, NAME.vx, NAME.vy, "
+                          "NAME.omega)"}
 
 # The hinge attributes the integrator applies itself (Coulomb friction, latches, hard stops,
 # stick-slip): the columns of a generated model's hinge_properties(p), in column order.
@@ -121,13 +148,15 @@ def read_block(block: Block | None, kind: str, owner: str, owner_span: Span,
     for item in block.items if block is not None else ():
         if isinstance(item, PointItem):
             if kind not in _POINTS_ALLOWED:
-                hint = "a beam's points are its ends a and b" if kind == "beam" else ""
+                hint = {"beam": "a beam's points are its ends a and b",
+                        "particle": "a particle is a point: its one point is cm (use a body "
+                                    "for a member with points)"}.get(kind, "")
                 report.error("E020", f"{owner} cannot have points", item.span, hint=hint)
             continue
         name = item.name.text if item.sub is None else f"{item.name.text}.{item.sub.text}"
         if name not in specs:
             hint = did_you_mean(name, specs) or f"{owner} takes: {join_names(specs)}" \
-                if specs else f"{owner} takes only points"
+                if specs else _NO_ATTRIBUTES.get(kind, f"{owner} takes only points")
             report.error("E020", f"unknown attribute '{name}' for {owner}", item.name.span,
                          hint=hint)
         elif name in found:
@@ -144,7 +173,7 @@ def read_block(block: Block | None, kind: str, owner: str, owner_span: Span,
 
 def _add_hint(spec: AttrSpec) -> str:
     examples = {"elements": "elements = 4", "axis": "axis = (1, 0)",
-                "angles": "angles = h1 - h2"}
+                "angles": "angles = h1 - h2", "acts": "acts = push"}
     if spec.dim is None:
         return f"add: {examples[spec.name]}"
     return f"add: {spec.name} = 1 {si_text(spec.dim)}"

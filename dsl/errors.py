@@ -52,6 +52,7 @@ CODES: dict[str, str] = {
     "E026": "bad simulate setting",
     "E027": "cannot evaluate",
     "E028": "inconsistent attributes",
+    "E029": "unknown word for an attribute that takes one of a few words",
     # units and dimensions
     "E030": "wrong dimension",
     "E031": "missing unit",
@@ -68,6 +69,8 @@ CODES: dict[str, str] = {
     "E045": "initial value for something that is not a joint",
     "E046": "initial value of a slider that closes a kinematic loop",
     "E047": "input on something it cannot act on, or a default that is not a number",
+    "E048": "an angle, torque or axis asked of a particle, which has none",
+    "E049": "a free joint between members that other joints already join",
     # repetition (for loops, indexed names, array and structural parameters)
     "E050": "bad loop range",
     "E051": "bad index",

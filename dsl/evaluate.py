@@ -11,8 +11,9 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-from .ir import (BeamQuantity, Binary, BodyCoord, Call, Dim, Expr, HingeAngle, Num, ParamRef,
-                 PointCoord, SliderPosition, Time, Unary)
+from .ir import (BeamQuantity, Binary, BodyCoord, Call, Dim, Expr, HingeAngle, JointLoad, Num,
+                 ParamRef, PointCoord, SliderPosition, SystemQuantity, Time, Unary)
+
 
 
 @dataclass(frozen=True, slots=True)
@@ -43,7 +44,8 @@ _OPERATORS: dict[str, Callable[[float, float], float]] = {
     "^": math.pow,
 }
 
-_STATE_NODES = (Time, BodyCoord, PointCoord, HingeAngle, SliderPosition, BeamQuantity)
+_STATE_NODES = (Time, BodyCoord, PointCoord, HingeAngle, SliderPosition, BeamQuantity, JointLoad,
+                SystemQuantity)
 
 
 def evaluate(expr: Expr, params_values: Sequence[float]) -> float:

@@ -17,7 +17,7 @@ from .evaluate import EvaluationError, Typed, binary, call, evaluate, is_constan
     param_indices
 from .ir import FUNCTIONS, Dim, Expr, HingeAngle, Num, SliderPosition, Span, Time
 from .names import SymbolTable
-from .state_refs import resolve_dotted
+from .state_refs import point_argument, resolve_dotted
 from .syntax import AstExpr, BinaryOp, CallExpr, NameRef, NumberLit, Quantity, UnaryOp
 from .units import ANGLE, NONE, UNITS, describe, dim_div, dim_mul, dim_scale, parse_unit
 
@@ -149,11 +149,21 @@ class ExprResolver:
             self.report.error("E015", f"parameter '{name}' is used before its declaration",
                               span, notes=[f"declared at {at(symbol.span)}"])
             return
-        elif symbol.kind in ("bar", "body", "beam", "ground"):
+        elif symbol.kind in ("bar", "body", "beam", "ground", "particle"):
             message = f"{symbol.describe()} has no value here; a member's angle can be " \
                 "used only in a hinge's angle"
-            hint = f"for its angle in an output, write {name}.phi" if symbol.kind != "beam" \
-                else f"for its chord angle in an output, write {name}.chord"
+            hint = {"beam": f"for its chord angle in an output, write {name}.chord",
+                    "particle": f"a particle does not turn; its position is {name}.x, "
+                                f"{name}.y"}.get(symbol.kind,
+                                                 f"for its angle in an output, write {name}.phi")
+        elif symbol.kind == "system":
+            message = "the system has no value of its own"
+            hint = "write one of its quantities, e.g. system.momentum_x, system.kinetic_energy"
+        elif symbol.kind in ("weld", "spring", "free"):
+            message = f"{symbol.describe()} has no value of its own"
+            hint = {"weld": f"its loads: {name}.force_x, {name}.force_y, {name}.torque",
+                    "spring": f"its force, length and rate: {name}.force, {name}.length, "
+                              f"{name}.rate"}.get(symbol.kind, "")
         elif symbol.kind in ("hinge", "slider"):
             message = f"{symbol.describe()} can be used only in outputs and cable angles"
             hint = ""
@@ -187,7 +197,8 @@ class ExprResolver:
                 verb = "add" if node.op == "+" else "subtract"
                 self.report.error(
                     "E032", f"cannot {verb} {describe(right.dim)} "
-                    f"{'to' if node.op == '+' else 'from'} {describe(left.dim)}", node.span)
+                    f"{'to' if node.op == '+' else 'from'} {describe(left.dim)}", node.span,
+                    hint=_angle_hint(left.dim, right.dim))
                 return None
             if left.dim != right.dim:  # an angle and a plain number: radians
                 plain = node.left if left.dim == NONE else node.right
@@ -251,6 +262,8 @@ class ExprResolver:
 
     def _resolve_CallExpr(self, node: CallExpr, context: Context) -> Typed | None:
         name = node.func.text
+        if name == SYSTEM_FUNCTION:
+            return self._angular_momentum(node, context)
         if name not in FUNCTIONS:
             self.report.error("E016", f"unknown function '{name}'", node.func.span,
                               hint=did_you_mean(name, FUNCTIONS) or
@@ -269,6 +282,18 @@ class ExprResolver:
             return None
         exprs = tuple(a.expr for a in args)
         return self._folded(Typed(call(name, exprs), dim), exprs, node)
+
+    def _angular_momentum(self, node: CallExpr, context: Context) -> Typed | None:
+        """`angular_momentum(MEMBER.POINT)`: the system's angular momentum about a point."""
+        if context is not Context.OUTPUT:
+            self.report.error("E018", "angular_momentum is a state quantity; it can be used "
+                              "only in outputs", node.span)
+            return None
+        if len(node.args) != 1:
+            self.report.error("E017", f"angular_momentum takes 1 argument, got "
+                              f"{len(node.args)}", node.span)
+            return None
+        return point_argument(self, node.args[0])
 
     def _call_dim(self, node: CallExpr, dims: list[Dim]) -> Dim | None:
         name = node.func.text
@@ -310,6 +335,21 @@ def parse_quantity(text: str) -> tuple[float, Dim]:
     if value is None or report.has_errors:
         raise ValueError(report.errors()[0].message)
     return value, typed.dim
+
+
+# The one function whose argument is a point, not a value: the system's angular momentum about
+# that point (outputs only).
+SYSTEM_FUNCTION = "angular_momentum"
+
+
+def _angle_hint(a: Dim, b: Dim) -> str:
+    """When two dimensions differ by the angle alone: divide (or multiply) by rad."""
+    ratio = dim_div(a, b)
+    if ratio == Dim(angle=1) or ratio == Dim(angle=-1):
+        return ("the two differ by rad, which is a unit of its own here: divide the side in "
+                "rad by rad (an inertia times an angular rate is in kg*m^2*rad/s; "
+                "`J * rod.omega / rad` is in kg*m^2/s, N*m*s)")
+    return ""
 
 
 def _zero_hint(divisor: AstExpr) -> str:

@@ -1,8 +1,8 @@
 """A hinge's `angle = ±(B - A) + offset`: its sign and offset from the written expression.
 
-Member names stand for their absolute angles and `ground` for 0. The expression must be
-linear with coefficient ±1 on B (the member joined second) and the opposite on A; the
-ground's term may be left out. Everything else is the offset (an angle; a plain number is
+Member names stand for their absolute angles and `ground` (and a particle) for 0. The
+expression must be linear with coefficient ±1 on B (the member joined second) and the
+opposite on A; the ground's (or a particle's) term may be left out. Everything else is the offset (an angle; a plain number is
 taken in radians).
 """
 
@@ -19,6 +19,7 @@ from .syntax import AttributeItem, JointStmt, VectorLit
 from .units import ANGLE, NONE
 
 _FORM = "hinge angle must be ±(B - A) + offset"
+_NO_ANGLE = ("ground", "particle")  # their angle is 0: their term may be left out
 
 
 def hinge_angle(statement: JointStmt, item: AttributeItem | None, ends,
@@ -93,9 +94,9 @@ def _sign(form: LinearForm, a: Symbol, b: Symbol) -> int | None:
     cb = _net_sign(form.terms.get(b.name, []))
     if ca is None or cb is None:
         return None
-    if a.kind == "ground":
+    if a.kind in _NO_ANGLE:
         sign, ok = cb, ca in (0, -cb)
-    elif b.kind == "ground":
+    elif b.kind in _NO_ANGLE:
         sign, ok = -ca, cb in (0, -ca)
     else:
         sign, ok = cb, ca == -cb

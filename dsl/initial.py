@@ -1,7 +1,9 @@
-"""`initial { h1 = 30 deg; h1.rate = 0 rad/s; s1 = 0.2 m }`: joint values at t = 0.
+"""`initial { h1 = 30 deg; h1.rate = 0 rad/s; s1 = 0.2 m; fly.x = 2 m }`: joint values at
+t = 0.
 
 Each value becomes a parameter entry (`h1.initial_angle`, `h1.initial_rate`,
-`s1.initial_position`, `s1.initial_rate`); values not given are 0.
+`s1.initial_position`, `s1.initial_rate`, `fly.initial_x`, ..., `fly.initial_omega`); values
+not given are 0.
 """
 
 from __future__ import annotations
@@ -13,13 +15,19 @@ from .names import SymbolTable
 from .syntax import AttributeItem, InitialStmt, PointItem
 from .units import ANGLE, LENGTH
 
+_RATE, _VELOCITY = Dim(angle=1, time=-1), Dim(length=1, time=-1)
 # (joint kind, property) -> (entry suffix, dimension)
 _VALUES: dict[tuple[str, str], tuple[str, Dim]] = {
     ("hinge", ""): ("initial_angle", ANGLE),
-    ("hinge", "rate"): ("initial_rate", Dim(angle=1, time=-1)),
+    ("hinge", "rate"): ("initial_rate", _RATE),
     ("slider", ""): ("initial_position", LENGTH),
-    ("slider", "rate"): ("initial_rate", Dim(length=1, time=-1)),
+    ("slider", "rate"): ("initial_rate", _VELOCITY),
+    ("free", "x"): ("initial_x", LENGTH), ("free", "y"): ("initial_y", LENGTH),
+    ("free", "angle"): ("initial_angle", ANGLE), ("free", "vx"): ("initial_vx", _VELOCITY),
+    ("free", "vy"): ("initial_vy", _VELOCITY), ("free", "omega"): ("initial_omega", _RATE),
 }
+_HOW = {"hinge": "{n} = ... or {n}.rate = ...", "slider": "{n} = ... or {n}.rate = ...",
+        "free": "{n}.x, {n}.y, {n}.angle, {n}.vx, {n}.vy or {n}.omega = ..."}
 
 
 class InitialValues:
@@ -32,9 +40,10 @@ class InitialValues:
     def get(self, joint: str, suffix: str) -> Expr | None:
         return self.values.get((joint, suffix))
 
-    def span_of(self, joint: str) -> Span | None:
-        """Where the first initial value of `joint` was given."""
-        found = [span for (name, _), span in self.spans.items() if name == joint]
+    def span_of(self, joint: str, suffix: str | None = None) -> Span | None:
+        """Where the first initial value of `joint` (of `suffix`, if given) was given."""
+        found = [span for (name, kind), span in self.spans.items()
+                 if name == joint and suffix in (None, kind)]
         return min(found, key=lambda s: (s.line, s.col)) if found else None
 
     def read(self, statement: InitialStmt, symbols: SymbolTable,
@@ -52,18 +61,20 @@ class InitialValues:
         name = item.name.text
         symbol = symbols.get(name)
         if symbol is None:
-            joints = symbols.names_of_kind("hinge", "slider")
+            joints = symbols.names_of_kind(*_HOW)
             report.error("E010", f"unknown name '{name}'", item.name.span,
                          hint=did_you_mean(name, joints) or f"joints: {join_names(joints)}")
             return
-        if symbol.kind not in ("hinge", "slider"):
-            report.error("E045", f"{symbol.describe()} is not a joint; initial values are "
-                         "given for hinges and sliders", item.name.span)
+        if symbol.kind not in _HOW:
+            report.error("E045", f"{symbol.describe()} has no initial value: initial values "
+                         "are given for hinges, sliders and free joints", item.name.span,
+                         hint=_not_a_joint_hint(symbol))
             return
         prop = item.sub.text if item.sub else ""
         if (symbol.kind, prop) not in _VALUES:
-            report.error("E019", f"{symbol.describe()} has no initial value '{prop}'",
-                         item.sub.span, hint=f"write {name} = ... or {name}.rate = ...")
+            report.error("E019", f"{symbol.describe()} has no initial value "
+                         f"'{prop or name}'", (item.sub or item.name).span,
+                         hint="write " + _HOW[symbol.kind].format(n=name))
             return
         suffix, dim = _VALUES[(symbol.kind, prop)]
         key = (name, suffix)
@@ -75,3 +86,14 @@ class InitialValues:
         self.spans[key] = item.span
         spec = AttrSpec(f"initial value of {name}{'.' + prop if prop else ''}", dim)
         self.values[key] = reader.scalar(item, spec, f"{name}.{suffix}")
+
+
+def _not_a_joint_hint(symbol) -> str:
+    if symbol.kind in ("bar", "body", "beam", "particle"):
+        return (f"to start {symbol.describe()} moving on its own, join it to the ground by a "
+                f"free joint, `free {symbol.name}_motion joins ground.origin to "
+                f"{symbol.name}.{'a' if symbol.kind == 'beam' else 'cm'}`, and give "
+                f"{symbol.name}_motion.x, .y, .angle, .vx, .vy, .omega here")
+    if symbol.kind == "weld":
+        return "a weld holds its members together: it has no value of its own"
+    return ""

@@ -17,6 +17,13 @@ Conventions (documented for users in docs/language.md):
   members the hinge joins, in the order written (`joins A to B`).
 * Slider displacement: s = axis_a . (r_b - r_a), axis a unit vector fixed in member a; the
   slider also keeps angle(b) - angle(a) at its initial value.
+* A particle has coordinates (x, y) and no angle: its angle counts as 0, as the ground's, and
+  its one point `cm` is where it is. Every rigid member has the point `cm` (0, 0).
+* A weld holds r_a = r_b and angle(b) - angle(a) = angle (not the angle with a particle).
+* A free joint (floating joint) places member b relative to member a at t = 0: its point at
+  (x, y) from a's point in a's frame, turned by `angle`; it has no constraint rows.
+* A spring-damper's force acts along the line from its point a to its point b, positive
+  pushing the points apart: F = preload - stiffness (L - free_length) - damping dL/dt.
 """
 
 from __future__ import annotations
@@ -139,8 +146,31 @@ class BeamQuantity:
     kind: str
 
 
+@dataclass(frozen=True, slots=True)
+class JointLoad:
+    """A load a connector carries (outputs only). kind "hinge": force_x, force_y, force (the
+    force on member b from member a, world frame, N), torque (its lock torque, N*m, nan while
+    nothing holds it); "weld": the same, torque the moment the weld holds; "spring": force
+    (along its line, positive pushing apart, N), length (m), rate (m/s)."""
+
+    kind: str
+    index: int
+    quantity: str
+
+
+@dataclass(frozen=True, slots=True)
+class SystemQuantity:
+    """A quantity of the whole system (outputs only, docs/language.md, System outputs):
+    mass, com_x, com_y, com_vx, com_vy, momentum_x, momentum_y, angular_momentum (about the
+    centre of mass, or about `point` when given), kinetic_energy, potential_energy, energy,
+    dissipated, dissipated_friction, dissipated_damping, dissipated_impacts."""
+
+    quantity: str
+    point: "Attachment | None" = None
+
+
 Expr = Num | ParamRef | Unary | Binary | Call | Time | BodyCoord | PointCoord | HingeAngle \
-    | SliderPosition | BeamQuantity
+    | SliderPosition | BeamQuantity | JointLoad | SystemQuantity
 
 
 # ---------------------------------------------------------------------------------------------
@@ -185,12 +215,13 @@ class MemberKind(Enum):
     GROUND = "ground"
     BODY = "body"
     BEAM = "beam"
+    PARTICLE = "particle"
 
 
 @dataclass(frozen=True, slots=True)
 class Member:
-    """A reference to the ground, a rigid body (index into Model.bodies) or a beam (index into
-    Model.beams). index is 0 for the ground."""
+    """A reference to the ground, a rigid body (index into Model.bodies), a beam (index into
+    Model.beams) or a particle (index into Model.particles). index is 0 for the ground."""
 
     kind: MemberKind
     index: int
@@ -239,6 +270,15 @@ class Beam:
 
 
 @dataclass(frozen=True, slots=True)
+class Particle:
+    """A point mass: coordinates (x, y), no angle; its one point is `cm`."""
+
+    name: str
+    mass: Expr  # kg
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
 class Attachment:
     member: Member
     point: str  # point name on that member ("a", "b", "origin", or a declared point)
@@ -277,6 +317,7 @@ class Hinge:
     initial_rate: Expr  # rad/s
     span: Span
     held: int = 0  # the assembly holds: 1 its initial angle (given), 2 its rate, 3 both
+    release: Expr | None = None  # s: held locked (a hold-down) from t = 0 until this time
 
 
 @dataclass(frozen=True, slots=True)
@@ -292,6 +333,67 @@ class Slider:
     initial_rate: Expr  # m/s
     span: Span
     held: int = 0  # the assembly holds: 1 its initial position (given), 2 its rate, 3 both
+
+
+@dataclass(frozen=True, slots=True)
+class Weld:
+    """A fixed joint: point a of member a and point b of member b coincide (rows x, y) and
+    angle(b) - angle(a) = angle (row `angle`, only when `rotational`: a particle has no angle,
+    so a weld to one holds the points only)."""
+
+    name: str
+    a: Attachment
+    b: Attachment
+    angle: Expr  # rad, the relative angle angle(b) - angle(a) it holds
+    rotational: bool  # False when a member is a particle: the weld holds the points only
+    span: Span
+
+
+# The initial values of a free joint, in the order of its tree values: (suffix, rate suffix).
+FREE_VALUES = (("initial_x", "initial_vx"), ("initial_y", "initial_vy"),
+               ("initial_angle", "initial_omega"))
+
+
+@dataclass(frozen=True, slots=True)
+class FreeJoint:
+    """A floating joint: member b free relative to member a (no constraint rows). At t = 0 it
+    places b (or a) so that b's point is at (x, y) from a's point in a's frame and
+    angle(b) - angle(a) = angle, moving at (vx, vy, omega), the rates of those three.
+    `initial` holds the six values in FREE_VALUES order (value, rate per coordinate), 0 when
+    not given; `held` per coordinate: 1 value given, 2 rate given, 3 both. A particle has no
+    angle: `turns` is False and the angle's values are not used."""
+
+    name: str
+    a: Attachment
+    b: Attachment
+    initial: tuple[Expr, ...]  # x, vx, y, vy, angle, omega (m, m/s, rad, rad/s)
+    held: tuple[int, int, int]
+    turns: bool
+    span: Span
+
+
+class SpringActs(Enum):
+    BOTH = "both"  # pushes and pulls
+    PUSH = "push"  # only while shorter than its free length, and never pulls (a kick-off spring)
+    PULL = "pull"  # only while longer than its free length, and never pushes (a cable)
+
+
+@dataclass(frozen=True, slots=True)
+class Spring:
+    """A point-to-point spring-damper between point a of member a and point b of member b:
+    force along the line a -> b, positive pushing the points apart,
+    F = preload - stiffness (L - free_length) - damping dL/dt (N); `acts` one-sided: PUSH
+    applies max(F, 0) while L < free_length, PULL min(F, 0) while L > free_length, else 0."""
+
+    name: str
+    a: Attachment
+    b: Attachment
+    stiffness: Expr | None  # N/m
+    free_length: Expr | None  # m (required with stiffness or a one-sided range)
+    preload: Expr | None  # N, the force at the free length
+    damping: Expr | None  # N*s/m
+    acts: SpringActs
+    span: Span
 
 
 @dataclass(frozen=True, slots=True)
@@ -351,6 +453,8 @@ class Simulation:
 class JointKind(Enum):
     HINGE = "hinge"
     SLIDER = "slider"
+    WELD = "weld"
+    FREE = "free"
 
 
 @dataclass(frozen=True, slots=True)
@@ -432,3 +536,7 @@ class Model:
     limits: tuple[Limit, ...] = ()  # every range check of an attribute, in file order
     inputs: tuple[Input, ...] = ()
     structural: tuple[StructuralParam, ...] = ()  # loop bounds and indices, fixed
+    particles: tuple[Particle, ...] = ()
+    welds: tuple[Weld, ...] = ()
+    free_joints: tuple[FreeJoint, ...] = ()
+    springs: tuple[Spring, ...] = ()

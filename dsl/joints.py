@@ -1,8 +1,9 @@
-"""Joints and what refers to them: hinges, sliders, cables and initial values.
+"""Connectors and what refers to them: hinges, sliders, welds, free joints, point-to-point
+springs, cables.
 
-A hinge's IR needs its initial values, which come from `initial` blocks anywhere in the
-file, so hinges and sliders are first read into drafts (dicts of fields) and completed by
-`resolve` once every statement has been read.
+A joint's IR needs its initial values, which come from `initial` blocks anywhere in the
+file, so hinges, sliders and free joints are first read into drafts (dicts of fields) and
+completed by `resolve` once every statement has been read.
 """
 
 from __future__ import annotations
@@ -11,12 +12,17 @@ from .attributes import SPECS, AttributeReader, read_block
 from .errors import did_you_mean, join_names
 from .evaluate import binary, call
 from .hinge_angle import hinge_angle
-from .ir import Attachment, Cable, CableTerm, Expr, Limit, Num
+from .ir import Attachment, Cable, CableTerm, Expr, Limit, Num, Spring, SpringActs, Weld
 from .linear import LinearForm, NotLinear, linearize
 from .members import read_vector
 from .names import MEMBER_KINDS, Symbol, SymbolTable, element_name
-from .syntax import AttachmentRef, CableStmt, JointStmt, VectorLit
-from .units import NONE, si_text
+from .syntax import AttachmentRef, CableStmt, JointStmt, NameRef, VectorLit
+from .units import ANGLE, NONE, si_text
+
+# Hinge attributes that apply a torque on the hinge angle (or lock it): a particle has no
+# angle and takes no torque, so a hinge at one has none of them.
+TORQUE_ATTRIBUTES = ("stiffness", "preload", "friction", "static_friction", "damping", "latch",
+                     "latch_stiffness", "latch_damping", "stop_min", "stop_max", "release")
 
 def attachment(ref: AttachmentRef, symbols: SymbolTable, reader: AttributeReader
                ) -> tuple[Symbol, Attachment] | None:
@@ -76,11 +82,34 @@ def resolve_hinge(statement: JointStmt, symbols: SymbolTable, reader: AttributeR
                 reader.limits.append(Limit(f"{name}.{key}", fields[key], spec.limit,
                                            si_text(spec.dim), statement.name.span))
     _check_hinge_limits(name, found, fields, reader)
+    if ends is not None and not _torque_free(statement, ends, found, reader):
+        return None
     if ends is None or angle is None or any(fields[k] is None for k in found if k != "angle"):
         return None
     fields.update(name=name, a=ends[0][1], b=ends[1][1], sign=angle[0], offset=angle[1],
                   span=statement.span)
     return fields
+
+
+def particle_end(ends) -> Symbol | None:
+    """The symbol of a particle among a connector's two ends, or None."""
+    return next((symbol for symbol, _ in ends if symbol.kind == "particle"), None)
+
+
+def _torque_free(statement: JointStmt, ends, found, reader: AttributeReader) -> bool:
+    """E048 for each torque attribute of a hinge at a particle (it has no angle)."""
+    particle = particle_end(ends)
+    if particle is None:
+        return True
+    for key in TORQUE_ATTRIBUTES:
+        if key in found:
+            reader.report.error("E048", f"hinge '{statement.name.text}' joins "
+                                f"{particle.describe()}, which has no angle: the hinge "
+                                f"carries no torque, so it cannot have '{key}'",
+                                found[key].name.span,
+                                hint="join a body (with an inertia) to give the hinge a "
+                                     "spring, friction, a latch or stops")
+    return not any(key in found for key in TORQUE_ATTRIBUTES)
 
 
 def _check_hinge_limits(name: str, found, fields, reader: AttributeReader) -> None:
@@ -118,9 +147,97 @@ def resolve_slider(statement: JointStmt, symbols: SymbolTable, reader: Attribute
             if not reader.check_limit(Limit(f"{name}.axis", size, "nonzero", "",
                                             item.value.span)):
                 axis = None
+    if ends is not None and ends[0][0].kind == "particle":
+        reader.report.error("E048", f"slider '{name}': {ends[0][0].describe()} has no angle, "
+                            "so it cannot carry the slider's axis", statement.a.span,
+                            hint="join the particle second: `joins RAIL.POINT to "
+                                 f"{ends[0][0].name}.cm`")
+        return None
     if ends is None or axis is None:
         return None
     return dict(name=name, a=ends[0][1], b=ends[1][1], axis=axis, span=statement.span)
+
+
+def resolve_weld(statement: JointStmt, symbols: SymbolTable, reader: AttributeReader
+                 ) -> Weld | None:
+    """A weld: its points held together and, between members with angles, its relative
+    angle (attribute `angle`, default 0); None when it has errors."""
+    name = statement.name.text
+    found = read_block(statement.block, "weld", f"weld '{name}'", statement.name.span,
+                       reader.report)
+    ends = _joint_ends(statement, symbols, reader)
+    angle: Expr | None = Num(0.0)
+    particle = particle_end(ends) if ends else None
+    if "angle" in found:
+        if particle is not None:
+            reader.report.error("E048", f"weld '{name}' joins {particle.describe()}, which "
+                                "has no angle: the weld holds the points together only",
+                                found["angle"].name.span, hint="remove the angle")
+            return None
+        spec = next(s for s in SPECS["weld"] if s.name == "angle")
+        angle = reader.scalar(found["angle"], spec, f"{name}.angle")
+    if ends is None or angle is None:
+        return None
+    return Weld(name, ends[0][1], ends[1][1], angle, particle is None, statement.span)
+
+
+def resolve_free(statement: JointStmt, symbols: SymbolTable, reader: AttributeReader
+                 ) -> dict | None:
+    """A free joint's fields except its initial values; None when it has errors."""
+    name = statement.name.text
+    read_block(statement.block, "free", f"free joint '{name}'", statement.name.span,
+               reader.report)
+    ends = _joint_ends(statement, symbols, reader)
+    if ends is None:
+        return None
+    return dict(name=name, a=ends[0][1], b=ends[1][1], turns=particle_end(ends) is None,
+                span=statement.span)
+
+
+def resolve_spring(statement: JointStmt, symbols: SymbolTable, reader: AttributeReader
+                   ) -> Spring | None:
+    """A point-to-point spring-damper; None when it has errors (all reported)."""
+    name = statement.name.text
+    owner = f"spring '{name}'"
+    found = read_block(statement.block, "spring", owner, statement.name.span, reader.report)
+    ends = _joint_ends(statement, symbols, reader)
+    specs = {spec.name: spec for spec in SPECS["spring"]}
+    values: dict[str, Expr | None] = {}
+    for key, item in found.items():  # in written order, so entries follow the file
+        if key != "acts":
+            values[key] = reader.scalar(item, specs[key], f"{name}.{key}")
+    acts = _acts(found.get("acts"), reader)
+    if not ({"stiffness", "preload", "damping"} & found.keys()):
+        reader.report.error("E021", f"{owner} has no force: give it a stiffness, a preload "
+                            "or a damping", statement.name.span,
+                            hint="add: stiffness = 100 N/m; free_length = 0.1 m")
+        return None
+    if "free_length" not in found and ("stiffness" in found or "acts" in found):
+        why = "a stiffness" if "stiffness" in found else "a one-sided range"
+        reader.report.error("E021", f"{owner} has {why} but no free_length", statement.name.span,
+                            hint="add: free_length = 0.1 m")
+        return None
+    if ends is None or acts is None or None in values.values():
+        return None
+    return Spring(name, ends[0][1], ends[1][1], values.get("stiffness"),
+                  values.get("free_length"), values.get("preload"), values.get("damping"), acts,
+                  statement.span)
+
+
+def _acts(item, reader: AttributeReader) -> SpringActs | None:
+    """`acts = push` or `acts = pull` (both ways without it); None after E029."""
+    if item is None:
+        return SpringActs.BOTH
+    value = item.value
+    word = value.parts[0].text if isinstance(value, NameRef) and len(value.parts) == 1 \
+        else None
+    choices = {acts.value: acts for acts in SpringActs}
+    if word in choices:
+        return choices[word]
+    reader.report.error("E029", "acts takes one of the words push, pull or both",
+                        value.span, hint="push: a kick-off spring (pushes until its free "
+                        "length); pull: a cable (pulls while taut)")
+    return None
 
 
 def resolve_cable(statement: CableStmt, symbols: SymbolTable, reader: AttributeReader,

@@ -16,27 +16,50 @@ from .evaluate import EvaluationError, evaluate, param_indices
 from .ir import Limit, Model
 
 
+# The kinds of range check, in the order of `enum dep_limit_kind` (depsim_model.h), and the
+# rule each states. A kind with a bound ("below", "at_least") compares two values.
+LIMIT_KINDS = ("positive", "nonnegative", "nonzero", "below", "at_least")
+_RULES = {"positive": "must be positive", "nonnegative": "must not be negative",
+          "nonzero": "must not be zero", "below": "must be less than",
+          "at_least": "must be at least"}
+
+
+def message_format(limit: Limit) -> str:
+    """The message of `limit` broken, as a printf format of its value and bound (`%g`, in
+    that order): the one wording of a range check, which `violation` fills here and the
+    integrator core fills in C (the generated model's LIMIT_MESSAGES), e.g.
+
+        "rod.length must be positive, got %g m"
+        "h1.stop_min must be less than h1.stop_max, got %g rad and %g rad"
+    """
+    unit = "" if limit.unit in ("", "1") else " " + limit.unit.replace("%", "%%")
+    what = limit.what.replace("%", "%%")
+    if limit.kind == "nonzero":
+        return f"{what} {_RULES[limit.kind]}"
+    if limit.bound is None:
+        return f"{what} {_RULES[limit.kind]}, got %g{unit}"
+    bound = limit.bound_what.replace("%", "%%")
+    return f"{what} {_RULES[limit.kind]} {bound}, got %g{unit} and %g{unit}"
+
+
+def holds(kind: str, value: float, bound: float = 0.0) -> bool:
+    """Whether a value (and its bound) passes a check of `kind` (LIMIT_KINDS)."""
+    return {"positive": value > 0, "nonnegative": value >= 0, "nonzero": value != 0,
+            "below": value < bound, "at_least": value >= bound}[kind]
+
+
 def violation(limit: Limit, values: Sequence[float]) -> str | None:
     """The message saying how `limit` fails for the parameter values `values` (SI, in
     Model.params order), or None when it holds. Raises EvaluationError when a value cannot
     be computed (division by zero, ...)."""
+    assert limit.kind in LIMIT_KINDS and (limit.bound is None) == (limit.kind in (
+        "positive", "nonnegative", "nonzero")), limit
     value = evaluate(limit.expr, values)
-    got = f"got {_quantity(value, limit.unit)}"
-    if limit.kind == "positive":
-        return None if value > 0 else f"{limit.what} must be positive, {got}"
-    if limit.kind == "nonnegative":
-        return None if value >= 0 else f"{limit.what} must not be negative, {got}"
-    if limit.kind == "nonzero":
-        return None if value != 0 else f"{limit.what} must not be zero"
-    assert limit.bound is not None, limit
-    bound = evaluate(limit.bound, values)
-    both = f"got {_quantity(value, limit.unit)} and {_quantity(bound, limit.unit)}"
-    if limit.kind == "below":
-        return None if value < bound else \
-            f"{limit.what} must be less than {limit.bound_what}, {both}"
-    assert limit.kind == "at_least", limit.kind
-    return None if value >= bound else \
-        f"{limit.what} must be at least {limit.bound_what}, {both}"
+    bound = evaluate(limit.bound, values) if limit.bound is not None else 0.0
+    if holds(limit.kind, value, bound):
+        return None
+    form = message_format(limit)
+    return form % (value, bound)[:form.replace("%%", "").count("%g")]
 
 
 def check_parameters(model: Model, values: Sequence[float],
@@ -86,4 +109,4 @@ def _quantity(value: float, unit: str) -> str:
     return f"{value:g}" if unit in ("", "1") else f"{value:g} {unit}"
 
 
-__all__ = ["check_parameters", "violation"]
+__all__ = ["LIMIT_KINDS", "check_parameters", "holds", "message_format", "violation"]

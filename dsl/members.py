@@ -1,4 +1,4 @@
-"""Members and vectors: gravity, the ground's points, bars, bodies and beams."""
+"""Members and vectors: gravity, the ground's points, bars, bodies, beams and particles."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from .attributes import SPECS, AttributeReader, read_block
 from .errors import Reporter, join_names
 from .evaluate import Typed, binary
 from .expressions import Context
-from .ir import Beam, Body, Dim, Expr, Ground, Model, Num, Point, Span
+from .ir import Beam, Body, Dim, Expr, Ground, Model, Num, Particle, Point, Span
 from .syntax import (AttributeItem, GravityStmt, GroundStmt, MemberStmt, NumberLit, PointItem,
                      VectorLit)
 from .units import LENGTH, dim_mul, parse_unit
@@ -83,8 +83,9 @@ def _scalars(statement: MemberStmt, reader: AttributeReader,
     return values
 
 
-def resolve_member(statement: MemberStmt, reader: AttributeReader) -> Body | Beam | None:
-    """A bar, body or beam; None when it has errors (all reported)."""
+def resolve_member(statement: MemberStmt, reader: AttributeReader
+                   ) -> Body | Beam | Particle | None:
+    """A bar, body, beam or particle; None when it has errors (all reported)."""
     name = statement.name.text
     owner = f"{statement.kind} '{name}'"
     found = read_block(statement.block, statement.kind, owner, statement.name.span,
@@ -93,6 +94,9 @@ def resolve_member(statement: MemberStmt, reader: AttributeReader) -> Body | Bea
     if statement.kind == "beam":
         elements = _elements(found.get("elements"), owner, reader)
         return _beam(statement, values, elements)
+    if statement.kind == "particle":
+        mass = values.get("mass")
+        return None if mass is None else Particle(name, mass, statement.span)
     builtin = ("a", "b") if statement.kind == "bar" else ()
     points = resolve_points(reader, name, statement.block.items, builtin)
     required = [s.name for s in SPECS[statement.kind] if s.required]

@@ -1,8 +1,8 @@
 """The symbol table: every declared name, its kind and index, and each member's points.
 
-One namespace holds parameters, members (bars, bodies, beams), joints, cables, outputs and
-inputs.
-Keywords, functions, `pi`, `t` and `ground` are reserved. A parameter may reuse a unit's
+One namespace holds parameters, members (bars, bodies, beams, particles), joints (hinges,
+sliders, welds, free joints), springs, cables, outputs and inputs.
+Keywords, functions, `pi`, `t`, `ground` and `system` are reserved. A parameter may reuse a unit's
 name (the pendulum's `m`): a bare name is looked up as a declared name first, and a unit
 written after a value (`2 m`) is always the unit.
 """
@@ -18,14 +18,22 @@ from .syntax import (KEYWORDS, CableStmt, GroundStmt, InputStmt, JointStmt, Memb
 from .units import UNITS
 
 CONSTANTS = frozenset({"pi", "t"})
+# Names of things every model has: the ground, and the system as a whole (its outputs).
+BUILT_IN = ("ground", "system")
 
 # What each kind is called in messages.
 KIND_WORDS = {
-    "param": "parameter", "bar": "bar", "body": "body", "beam": "beam", "hinge": "hinge",
-    "slider": "slider", "cable": "cable", "output": "output", "input": "input",
-    "ground": "the ground",
+    "param": "parameter", "bar": "bar", "body": "body", "beam": "beam", "particle": "particle",
+    "hinge": "hinge", "slider": "slider", "weld": "weld", "free": "free joint",
+    "spring": "spring", "cable": "cable", "output": "output", "input": "input",
+    "ground": "the ground", "system": "the system",
 }
-MEMBER_KINDS = ("bar", "body", "beam", "ground")
+MEMBER_KINDS = ("bar", "body", "beam", "particle", "ground")
+JOINT_KINDS = ("hinge", "slider", "weld", "free")  # connectors that are joints
+# Every rigid member (and a particle) has the point `cm`, its centre of mass; a bar and a
+# beam have their ends `a` and `b`.
+BUILT_IN_POINTS = {"bar": ("a", "b", "cm"), "body": ("cm",), "particle": ("cm",),
+                   "beam": ("a", "b")}
 
 
 @dataclass(frozen=True, slots=True)
@@ -42,12 +50,14 @@ class Symbol:
     def member(self) -> Member:
         assert self.kind in MEMBER_KINDS, self.kind
         kind = {"bar": MemberKind.BODY, "body": MemberKind.BODY, "beam": MemberKind.BEAM,
-                "ground": MemberKind.GROUND}[self.kind]
+                "particle": MemberKind.PARTICLE, "ground": MemberKind.GROUND}[self.kind]
         return Member(kind, self.index)
 
     def describe(self) -> str:
         """"bar 'yoke'", "the ground"."""
-        return "the ground" if self.kind == "ground" else f"{KIND_WORDS[self.kind]} '{self.name}'"
+        if self.kind in BUILT_IN:
+            return KIND_WORDS[self.kind]
+        return f"{KIND_WORDS[self.kind]} '{self.name}'"
 
 
 @dataclass
@@ -74,6 +84,7 @@ def collect_symbols(source: SourceFile, report: Reporter) -> SymbolTable:
     table = SymbolTable()
     ground_span = Span(source.filename, 1, 1, 1, 1)
     table.symbols["ground"] = Symbol("ground", "ground", 0, ground_span)
+    table.symbols["system"] = Symbol("system", "system", 0, ground_span)
     table.points["ground"] = {"origin": None}
     for statement in source.statements:
         _declare_statement(table, statement, report)
@@ -100,9 +111,11 @@ def _declare_statement(table: SymbolTable, statement, report: Reporter) -> None:
 
 def _declare(table: SymbolTable, ident, kind: str, report: Reporter) -> bool:
     name = ident.text
-    if name in KEYWORDS or name in FUNCTIONS or name in CONSTANTS or name == "ground":
+    if name in KEYWORDS or name in FUNCTIONS or name in CONSTANTS or name in BUILT_IN:
         what = "a keyword" if name in KEYWORDS else "a function" if name in FUNCTIONS \
-            else "the ground" if name == "ground" else "a built-in constant"
+            else "the ground" if name == "ground" \
+            else "reserved for the system's quantities (system.momentum_x, ...)" \
+            if name == "system" else "a built-in constant"
         report.error("E014", f"'{name}' is {what} and cannot name a {KIND_WORDS[kind]}",
                      ident.span, hint="choose another name")
         return False
@@ -120,9 +133,9 @@ def _declare(table: SymbolTable, ident, kind: str, report: Reporter) -> bool:
 
 def _declare_points(table: SymbolTable, statement: MemberStmt, report: Reporter) -> None:
     name = statement.name.text
-    table.points[name] = {"a": None, "b": None} if statement.kind in ("bar", "beam") else {}
-    if statement.kind == "beam":
-        return  # a beam's points are its ends; declared points are reported by resolve
+    table.points[name] = dict.fromkeys(BUILT_IN_POINTS[statement.kind])
+    if statement.kind in ("beam", "particle"):
+        return  # a beam's points are its ends, a particle's its cm: others are reported later
     owner = f"{statement.kind} '{name}'"
     _declare_points_of(table, name, owner, statement.block.items, report)
 
@@ -137,7 +150,8 @@ def _declare_points_of(table: SymbolTable, member: str, owner: str, items,
         if name in points:
             first = points[name]
             notes = [f"first defined at {at(first)}"] if first else \
-                [f"'{name}' is a built-in point of {owner}"]
+                [f"'{name}' is a built-in point of {owner}" + (" (its centre of mass)"
+                                                              if name == "cm" else "")]
             report.error("E011", f"duplicate point '{name}' on {owner}", item.name.span,
                          notes=notes)
             continue

@@ -150,9 +150,10 @@ class _Expander:
 
     def _loop_variable_ok(self, var: Ident, env: _Env) -> bool:
         name = var.text
-        if name in KEYWORDS or name in FUNCTIONS or name in ("pi", "t", "ground"):
+        if name in KEYWORDS or name in FUNCTIONS or name in ("pi", "t", "ground", "system"):
             what = "a keyword" if name in KEYWORDS else "a function" if name in FUNCTIONS \
-                else "the ground" if name == "ground" else "a built-in constant"
+                else "the ground" if name == "ground" else "the system" if name == "system" \
+                else "a built-in constant"
             self.report.error("E014", f"'{name}' is {what} and cannot name a loop variable",
                               env.span(var.span), hint="choose another name, e.g. i")
             return False

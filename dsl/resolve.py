@@ -16,9 +16,11 @@ from .errors import Reporter, at, file_span, sort_key
 from .evaluate import EvaluationError, Typed, evaluate, param_indices
 from .expressions import Context, ExprResolver, ParamInfo
 from .initial import InitialValues
-from .ir import (Beam, Body, Cable, Expr, Ground, Hinge, JointKind, Model, Num, Output, Param,
-                 ParamKind, Simulation, Slider, StructuralParam)
-from .joints import resolve_cable, resolve_hinge, resolve_slider
+from .ir import (FREE_VALUES, Beam, Body, Cable, Expr, FreeJoint, Ground, Hinge, InputKind,
+                 JointKind, MemberKind, Model, Num, Output, Param, ParamKind, Particle,
+                 Simulation, Slider, StructuralParam)
+from .joints import (resolve_cable, resolve_free, resolve_hinge, resolve_slider, resolve_spring,
+                     resolve_weld)
 from .members import check_element_total, resolve_gravity, resolve_ground, resolve_member
 from .names import collect_symbols
 from .repeat import expand
@@ -56,9 +58,12 @@ class _ModelBuilder:
         self.reader = AttributeReader(self.resolver, self.vector)
         self.gravity: tuple[Expr, Expr] | None = (Num(0.0), Num(0.0))
         self.ground: Ground | None = None
-        self.members: list[Body | Beam | None] = []
+        self.members: list[Body | Beam | Particle | None] = []
         self.hinges: list[dict | None] = []
         self.sliders: list[dict | None] = []
+        self.welds: list = []
+        self.free_joints: list[dict | None] = []
+        self.springs: list = []
         self.cables: list[Cable | None] = []
         self.outputs: list[Output | None] = []
         self.inputs: list = []
@@ -153,10 +158,11 @@ class _ModelBuilder:
     def _read_JointStmt(self, statement: JointStmt) -> None:
         if not self._declares(statement):
             return
-        if statement.kind == "hinge":
-            self.hinges.append(resolve_hinge(statement, self.symbols, self.reader))
-        else:
-            self.sliders.append(resolve_slider(statement, self.symbols, self.reader))
+        read = {"hinge": (self.hinges, resolve_hinge), "slider": (self.sliders, resolve_slider),
+                "weld": (self.welds, resolve_weld), "free": (self.free_joints, resolve_free),
+                "spring": (self.springs, resolve_spring)}
+        found, resolve_kind = read[statement.kind]
+        found.append(resolve_kind(statement, self.symbols, self.reader))
 
     def _read_CableStmt(self, statement: CableStmt) -> None:
         if self._declares(statement):
@@ -224,7 +230,7 @@ class _ModelBuilder:
 
     def _model(self) -> Model:
         parts = (self.members, self.hinges, self.sliders, self.cables, self.outputs,
-                 self.inputs)
+                 self.inputs, self.welds, self.free_joints, self.springs)
         assert self.gravity is not None and all(None not in p for p in parts), \
             "an element failed without an error"
         hinges = tuple(Hinge(**h, initial_angle=self._initial(h["name"], "initial_angle"),
@@ -235,12 +241,16 @@ class _ModelBuilder:
                                initial_rate=self._initial(s["name"], "initial_rate"),
                                held=self._held(s["name"], "initial_position"))
                         for s in self.sliders)
+        free_joints = tuple(self._free_joint(f) for f in self.free_joints)
         bodies = tuple(m for m in self.members if isinstance(m, Body))
         beams = tuple(m for m in self.members if isinstance(m, Beam))
+        particles = tuple(m for m in self.members if isinstance(m, Particle))
         members = [(s.member, s.describe(), s.span)
-                   for s in self.symbols.of_kind("bar", "body", "beam")]
-        placements, loops = assemble(hinges, sliders, members, self.report)
+                   for s in self.symbols.of_kind("bar", "body", "beam", "particle")]
+        placements, loops = assemble(hinges, sliders, members, self.report, tuple(self.welds),
+                                     free_joints)
         self._check_loop_sliders(sliders, loops)
+        self._check_particle_hinges(hinges)
         if not members:
             self.report.warning("W004", "the model has no bodies or beams",
                                 self.source.statements[0].span)
@@ -255,17 +265,55 @@ class _ModelBuilder:
             outputs=tuple(self.outputs), simulation=self.simulation, placements=placements,
             loop_joints=loops, warnings=tuple(sorted(self.report.warnings(), key=sort_key)),
             limits=tuple(self.reader.limits), inputs=tuple(self.inputs),
-            structural=self.structural)
+            structural=self.structural, particles=particles, welds=tuple(self.welds),
+            free_joints=free_joints, springs=tuple(self.springs))
 
     def _initial(self, joint: str, suffix: str) -> Expr:
         value = self.initial.get(joint, suffix)
         return Num(0.0) if value is None else value
 
-    def _held(self, joint: str, value_suffix: str) -> int:
+    def _held(self, joint: str, value_suffix: str, rate_suffix: str = "initial_rate") -> int:
         """What of a joint's initial state the user gave, so the assembly holds it: 1 its
         value, 2 its rate (docs/language.md, Assembly)."""
         return ((self.initial.get(joint, value_suffix) is not None)
-                | 2 * (self.initial.get(joint, "initial_rate") is not None))
+                | 2 * (self.initial.get(joint, rate_suffix) is not None))
+
+    def _free_joint(self, fields: dict) -> FreeJoint:
+        """The free joint with its initial values (0 where not given) and what was given."""
+        name = fields["name"]
+        initial, held = [], []
+        for value, rate in FREE_VALUES:
+            initial += [self._initial(name, value), self._initial(name, rate)]
+            held.append(self._held(name, value, rate))
+        if not fields["turns"]:
+            for suffix in FREE_VALUES[2]:
+                if self.initial.get(name, suffix) is not None:
+                    self.report.error(
+                        "E048", f"free joint '{name}' moves a particle, which has no angle: "
+                        f"it takes no initial {suffix.removeprefix('initial_')}",
+                        self.initial.span_of(name, suffix),
+                        hint=f"give {name}.x, {name}.y, {name}.vx and {name}.vy")
+        return FreeJoint(**fields, initial=tuple(initial), held=tuple(held))
+
+    def _check_particle_hinges(self, hinges: tuple[Hinge, ...]) -> None:
+        """A hinge at a particle carries no torque: no cable and no torque input on it."""
+        at_particle = {i for i, h in enumerate(hinges)
+                       if MemberKind.PARTICLE in (h.a.member.kind, h.b.member.kind)}
+        if not at_particle:
+            return
+        for cable in self.cables:
+            for term in cable.terms:
+                if term.hinge in at_particle:
+                    self.report.error("E048", f"cable '{cable.name}' acts on hinge "
+                                      f"'{hinges[term.hinge].name}', which joins a particle "
+                                      "and carries no torque", cable.span)
+        for put in self.inputs:
+            if put.kind is InputKind.TORQUE and put.hinge in at_particle:
+                self.report.error("E047", f"torque input '{put.name}': hinge "
+                                  f"'{hinges[put.hinge].name}' joins a particle, which has no "
+                                  "angle, and carries no torque", put.span,
+                                  hint="apply a force to the particle instead: `input NAME "
+                                       "force on PARTICLE.cm`")
 
     def _check_loop_sliders(self, sliders, loops) -> None:
         """A slider that closes a loop has no coordinate of its own in the assembly: its

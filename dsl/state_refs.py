@@ -1,5 +1,6 @@
 """Dotted names in expressions: state quantities such as `h1.rate`, `rod.phi`, `rod.b.x`,
-`link2.chord`. They are allowed only in outputs."""
+`link2.chord`, loads such as `h1.force_x`, `kick.force`, and the system's quantities such as
+`system.momentum_x`. They are allowed only in outputs."""
 
 from __future__ import annotations
 
@@ -7,16 +8,35 @@ from typing import TYPE_CHECKING
 
 from .errors import did_you_mean, join_names
 from .evaluate import Typed
-from .ir import BeamQuantity, BodyCoord, Dim, HingeAngle, PointCoord, SliderPosition
+from .ir import (BeamQuantity, BodyCoord, Dim, HingeAngle, JointLoad, PointCoord, SliderPosition,
+                 SystemQuantity)
 from .syntax import Ident, NameRef
-from .units import ANGLE, LENGTH
+from .units import ANGLE, LENGTH, NONE
 
 if TYPE_CHECKING:
     from .expressions import ExprResolver
 
 VELOCITY = Dim(length=1, time=-1)
+FORCE = Dim(mass=1, length=1, time=-2)
+TORQUE = Dim(mass=1, length=2, time=-2)
+ENERGY = TORQUE
 BODY_COORDS = {"x": LENGTH, "y": LENGTH, "phi": ANGLE, "vx": VELOCITY, "vy": VELOCITY,
                "omega": Dim(angle=1, time=-1)}
+PARTICLE_COORDS = {"x": LENGTH, "y": LENGTH, "vx": VELOCITY, "vy": VELOCITY}
+# The loads a connector carries, by its kind (ir.JointLoad).
+REACTIONS = {"force_x": FORCE, "force_y": FORCE, "force": FORCE, "torque": TORQUE}
+LOADS = {"hinge": REACTIONS, "weld": REACTIONS,
+         "spring": {"force": FORCE, "length": LENGTH, "rate": VELOCITY}}
+# The system's quantities (ir.SystemQuantity); angular momentum in N*m*s (kg*m^2/s).
+ANGULAR_MOMENTUM = Dim(mass=1, length=2, time=-1)
+SYSTEM_QUANTITIES = {
+    "mass": Dim(mass=1), "com_x": LENGTH, "com_y": LENGTH, "com_vx": VELOCITY,
+    "com_vy": VELOCITY, "momentum_x": Dim(mass=1, length=1, time=-1),
+    "momentum_y": Dim(mass=1, length=1, time=-1), "angular_momentum": ANGULAR_MOMENTUM,
+    "kinetic_energy": ENERGY, "potential_energy": ENERGY, "energy": ENERGY,
+    "dissipated": ENERGY, "dissipated_friction": ENERGY, "dissipated_damping": ENERGY,
+    "dissipated_impacts": ENERGY,
+}
 POINT_AXES = {"x": LENGTH, "y": LENGTH, "vx": VELOCITY, "vy": VELOCITY}
 BEAM_QUANTITIES = {"chord": ANGLE, "tip_deflection": LENGTH}
 JOINT_RATES = {"hinge": Dim(angle=1, time=-1), "slider": VELOCITY}
@@ -32,15 +52,17 @@ def resolve_dotted(resolver: ExprResolver, node: NameRef, in_output: bool) -> Ty
         report.error("E010", f"unknown name '{head.text}'", head.span,
                      hint=did_you_mean(head.text, names))
         return None
-    if symbol.kind in ("param", "cable", "output"):
+    if symbol.kind in ("param", "cable", "output", "input"):
         report.error("E019", f"{symbol.describe()} has no properties", node.span)
         return None
     if not in_output:
         report.error("E018", f"'{node.dotted}' is a state quantity; it can be used only in "
                      "outputs", node.span)
         return None
-    if symbol.kind in ("hinge", "slider"):
-        return _joint_rate(resolver, symbol, node)
+    if symbol.kind == "system":
+        return _system_quantity(resolver, node)
+    if symbol.kind in ("hinge", "slider", "weld", "spring", "free"):
+        return _joint_property(resolver, symbol, node)
     if len(node.parts) == 2:
         return _member_quantity(resolver, symbol, node.parts[1], node)
     if len(node.parts) == 3:
@@ -50,15 +72,36 @@ def resolve_dotted(resolver: ExprResolver, node: NameRef, in_output: bool) -> Ty
     return None
 
 
-def _joint_rate(resolver, symbol, node: NameRef):
+def _joint_property(resolver, symbol, node: NameRef):
+    """`h.rate`, `s.rate`; a connector's loads (`h.force_x`, `w.torque`, `k.force`)."""
     prop = node.parts[1]
-    if len(node.parts) == 2 and prop.text == "rate":
+    loads = LOADS.get(symbol.kind, {})
+    if len(node.parts) == 2 and prop.text == "rate" and symbol.kind in ("hinge", "slider"):
         expr = HingeAngle(symbol.index, True) if symbol.kind == "hinge" \
             else SliderPosition(symbol.index, True)
         return Typed(expr, JOINT_RATES[symbol.kind])
+    if len(node.parts) == 2 and prop.text in loads:
+        return Typed(JointLoad(symbol.kind, symbol.index, prop.text), loads[prop.text])
+    known = (["rate"] if symbol.kind in ("hinge", "slider") else []) + list(loads)
+    hint = f"its properties: {join_names(known)}" if known else \
+        "a free joint only places its member at t = 0: use the member's x, y, phi, vx, " \
+        "vy, omega"
     resolver.report.error("E019", f"{symbol.describe()} has no property "
                           f"'{'.'.join(p.text for p in node.parts[1:])}'", prop.span,
-                          hint=f"its only property is '{symbol.name}.rate'")
+                          hint=did_you_mean(prop.text, known) or hint)
+    return None
+
+
+def _system_quantity(resolver, node: NameRef):
+    """`system.momentum_x`, `system.kinetic_energy`, ...: the whole system's."""
+    prop = node.parts[1]
+    if len(node.parts) == 2 and prop.text in SYSTEM_QUANTITIES:
+        return Typed(SystemQuantity(prop.text), SYSTEM_QUANTITIES[prop.text])
+    what = ".".join(p.text for p in node.parts[1:])
+    resolver.report.error("E019", f"the system has no property '{what}'", prop.span,
+                          hint=did_you_mean(prop.text, SYSTEM_QUANTITIES)
+                          or f"its properties: {join_names(SYSTEM_QUANTITIES)}; the angular "
+                             "momentum about a point: angular_momentum(MEMBER.POINT)")
     return None
 
 
@@ -66,6 +109,12 @@ def _member_quantity(resolver, symbol, prop: Ident, node: NameRef):
     points = resolver.symbols.points.get(symbol.name, {})
     if symbol.kind in ("bar", "body") and prop.text in BODY_COORDS:
         return Typed(BodyCoord(symbol.index, prop.text), BODY_COORDS[prop.text])
+    if symbol.kind == "particle" and prop.text in PARTICLE_COORDS:
+        return Typed(PointCoord(symbol.member, "cm", prop.text), PARTICLE_COORDS[prop.text])
+    if symbol.kind == "particle" and prop.text in ("phi", "omega"):
+        resolver.report.error("E019", f"{symbol.describe()} does not turn: it has no "
+                              f"'{prop.text}'", prop.span, hint="a particle has x, y, vx, vy")
+        return None
     if symbol.kind == "beam" and prop.text in BEAM_QUANTITIES:
         return Typed(BeamQuantity(symbol.index, prop.text), BEAM_QUANTITIES[prop.text])
     if prop.text in points:
@@ -82,7 +131,36 @@ def _member_quantity(resolver, symbol, prop: Ident, node: NameRef):
 def _properties(kind: str) -> list[str]:
     if kind in ("bar", "body"):
         return list(BODY_COORDS)
+    if kind == "particle":
+        return list(PARTICLE_COORDS)
     return list(BEAM_QUANTITIES) if kind == "beam" else []
+
+
+def point_argument(resolver, node) -> Typed | None:
+    """`angular_momentum(MEMBER.POINT)`: the system's angular momentum about that point
+    (N*m*s), in outputs only (the caller checks the context)."""
+    from .ir import Attachment
+
+    if not isinstance(node, NameRef) or len(node.parts) != 2:
+        resolver.report.error("E034", "angular_momentum takes a point, MEMBER.POINT, e.g. "
+                              "angular_momentum(ground.origin)", node.span)
+        return None
+    member, point = node.parts
+    symbol = resolver.symbols.get(member.text)
+    if symbol is None or symbol.kind not in ("bar", "body", "beam", "particle", "ground"):
+        what = symbol.describe() if symbol else f"'{member.text}'"
+        resolver.report.error("E012", f"{what} is not a member: angular_momentum takes a "
+                              "member's point", member.span)
+        return None
+    points = resolver.symbols.points.get(symbol.name, {})
+    if point.text not in points:
+        resolver.report.error("E013", f"{symbol.describe()} has no point '{point.text}'",
+                              point.span, hint=did_you_mean(point.text, points)
+                              or f"its points: {join_names(points)}")
+        return None
+    return Typed(SystemQuantity("angular_momentum", Attachment(symbol.member, point.text,
+                                                                node.span)),
+                 ANGULAR_MOMENTUM)
 
 
 def _point_coordinate(resolver, symbol, point: Ident, axis: Ident):

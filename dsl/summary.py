@@ -17,6 +17,9 @@ from .units import ANGLE, si_text
 _WIDTH = 100
 _HINGE_DIMS = {spec.name: spec.dim for spec in SPECS["hinge"] if spec.dim is not None}
 _HINGE_DIMS.update(initial_angle=ANGLE, initial_rate=Dim(time=-1, angle=1))
+_SPRING_DIMS = {spec.name: spec.dim for spec in SPECS["spring"] if spec.dim is not None}
+_FREE_DIMS = (Dim(length=1), Dim(length=1, time=-1), Dim(length=1), Dim(length=1, time=-1),
+              ANGLE, Dim(time=-1, angle=1))
 _HINGE_ATTRIBUTES = tuple(_HINGE_DIMS)
 
 
@@ -25,8 +28,8 @@ def summary(model: Model) -> str:
     values = [p.default for p in model.params]
     lines = [f"model {model.name}" + (f": {model.description}" if model.description else ""),
              f"source {model.source_file} (sha256 {model.source_sha256[:12]})", ""]
-    for section in (_bodies, _beams, _hinges, _sliders, _cables, _sizes, _settings, _params,
-                    _outputs, _inputs, _warnings):
+    for section in (_bodies, _particles, _beams, _hinges, _sliders, _welds, _free_joints,
+                    _springs, _cables, _sizes, _settings, _params, _outputs, _inputs, _warnings):
         lines += section(model, values)
     return "\n".join(lines).rstrip() + "\n"
 
@@ -46,8 +49,15 @@ def quantity(expr: Expr, dim: Dim, values: list[float]) -> str:
 def _member_name(model: Model, member: Member) -> str:
     if member.kind is MemberKind.GROUND:
         return "ground"
-    elements = model.bodies if member.kind is MemberKind.BODY else model.beams
+    elements = {MemberKind.BODY: model.bodies, MemberKind.BEAM: model.beams,
+                MemberKind.PARTICLE: model.particles}[member.kind]
     return elements[member.index].name
+
+
+def _ends(model: Model, joint) -> str:
+    """"yoke.b -> panel1.a"."""
+    return (f"{_member_name(model, joint.a.member)}.{joint.a.point} -> "
+            f"{_member_name(model, joint.b.member)}.{joint.b.point}")
 
 
 def _bodies(model: Model, values: list[float]) -> list[str]:
@@ -60,6 +70,51 @@ def _bodies(model: Model, values: list[float]) -> list[str]:
         parts.append(f"inertia {quantity(body.inertia, Dim(1, 2), values)};")
         parts.append("points " + ", ".join(p.name for p in body.points))
         lines += _wrap(" ".join(parts))
+    return lines
+
+
+def _particles(model: Model, values: list[float]) -> list[str]:
+    if not model.particles:
+        return []
+    return [f"particles ({len(model.particles)})"] + [
+        f"  {p.name:<12} mass {quantity(p.mass, Dim(mass=1), values)}" for p in model.particles]
+
+
+def _welds(model: Model, values: list[float]) -> list[str]:
+    if not model.welds:
+        return []
+    lines = [f"welds ({len(model.welds)})"]
+    for weld in model.welds:
+        holds = f"angle {quantity(weld.angle, ANGLE, values)}" if weld.rotational \
+            else "the points only (a particle)"
+        lines += _wrap(f"  {weld.name:<12} {_ends(model, weld)}: holds {holds}")
+    return lines
+
+
+def _free_joints(model: Model, values: list[float]) -> list[str]:
+    if not model.free_joints:
+        return []
+    lines = [f"free joints ({len(model.free_joints)})"]
+    names = ("x", "vx", "y", "vy", "angle", "omega")
+    for free in model.free_joints:
+        given = [f"{name} {quantity(value, dim, values)}" for name, value, dim
+                 in zip(names, free.initial, _FREE_DIMS)
+                 if (free.turns or name not in ("angle", "omega")) and value != Num(0.0)]
+        lines += _wrap_items(f"  {free.name:<12} {_ends(model, free)}; initial", given
+                             or ["at rest, at its point"])
+    return lines
+
+
+def _springs(model: Model, values: list[float]) -> list[str]:
+    if not model.springs:
+        return []
+    lines = [f"springs ({len(model.springs)})"]
+    for spring in model.springs:
+        attributes = [f"{name} {quantity(value, _SPRING_DIMS[name], values)}"
+                      for name in _SPRING_DIMS if (value := getattr(spring, name)) is not None]
+        if spring.acts.value != "both":
+            attributes.append(f"acts {spring.acts.value}")
+        lines += _wrap_items(f"  {spring.name:<12} {_ends(model, spring)};", attributes)
     return lines
 
 
@@ -124,13 +179,16 @@ def _cables(model: Model, values: list[float]) -> list[str]:
 
 def _sizes(model: Model, values: list[float]) -> list[str]:
     joints = len(model.hinges) + len(model.sliders)
-    coordinates = 3 * len(model.bodies)
-    text = f"coordinates {coordinates} (3 per rigid body)"
+    coordinates = 3 * len(model.bodies) + 2 * len(model.particles)
+    rows = 2 * joints + sum(3 if w.rotational else 2 for w in model.welds)
+    text = f"coordinates {coordinates} (3 per rigid body"
+    text += ", 2 per particle)" if model.particles else ")"
     if model.beams:
         text += ", plus beam coordinates (set by the beam element)"
-    text += f"; constraints {2 * joints} (2 per hinge or slider)"
+    text += f"; constraints {rows} (2 per hinge or slider"
+    text += ", 3 per weld)" if model.welds else ")"
     if not model.beams:
-        text += f"; degrees of freedom {coordinates - 2 * joints}"
+        text += f"; degrees of freedom {coordinates - rows}"
     steps = [f"{_joint_name(model, p.kind.value, p.joint)} places "
              f"{_member_name(model, p.child)}" for p in model.placements]
     loops = [_joint_name(model, kind.value, index) for kind, index in model.loop_joints]
@@ -141,7 +199,8 @@ def _sizes(model: Model, values: list[float]) -> list[str]:
 
 
 def _joint_name(model: Model, kind: str, index: int) -> str:
-    return (model.hinges if kind == "hinge" else model.sliders)[index].name
+    return {"hinge": model.hinges, "slider": model.sliders, "weld": model.welds,
+            "free": model.free_joints}[kind][index].name
 
 
 def _settings(model: Model, values: list[float]) -> list[str]:

@@ -15,10 +15,12 @@ from .ir import Span
 
 
 # The words that start statements, and all keywords of the grammar.
-STATEMENT_WORDS = ("model", "param", "gravity", "ground", "bar", "body", "beam", "hinge",
-                   "slider", "cable", "initial", "simulate", "output", "input")
+STATEMENT_WORDS = ("model", "param", "gravity", "ground", "bar", "body", "beam", "particle",
+                   "hinge", "slider", "weld", "free", "spring", "cable", "initial", "simulate",
+                   "output", "input")
 KEYWORDS = frozenset(STATEMENT_WORDS + ("joins", "to", "point", "for"))
-KIND_WORDS = ("bar", "body", "beam", "hinge", "slider")  # keywords the syntax tree keeps
+# keywords the syntax tree keeps
+KIND_WORDS = ("bar", "body", "beam", "particle", "hinge", "slider", "weld", "free", "spring")
 # Words of the input statement only (`input T torque on h1`): keywords there, names elsewhere.
 INPUT_WORDS = ("torque", "force", "on")
 # The word of the for statement only (`for i in 1..N`): a keyword there, a name elsewhere.
@@ -189,7 +191,7 @@ class GroundStmt:
 
 @dataclass(frozen=True, slots=True)
 class MemberStmt:
-    kind: str  # "bar", "body" or "beam"
+    kind: str  # "bar", "body", "beam" or "particle"
     name: Ident
     block: Block
     span: Span
@@ -204,7 +206,10 @@ class AttachmentRef:
 
 @dataclass(frozen=True, slots=True)
 class JointStmt:
-    kind: str  # "hinge" or "slider"
+    """A connector between two member points: a joint (hinge, slider, weld, free) or a
+    point-to-point spring-damper."""
+
+    kind: str  # "hinge", "slider", "weld", "free" or "spring"
     name: Ident
     a: AttachmentRef
     b: AttachmentRef

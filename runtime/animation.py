@@ -16,7 +16,8 @@ otherwise they are reconstructed as below. The geometry comes from the generated
   drawn as a polyline) and `HINGE_POINTS` (the index of each hinge's point);
 * otherwise it is reconstructed from what every module has: rigid members from their
   (x, y, phi) coordinates (a bar of parameter `<m>.length` as its two ends, another body as
-  the polyline through its hinges), beams from their node coordinates, and each hinge's
+  the polyline through its hinges), particles from their (x, y) (a small square), beams from
+  their node coordinates, and each hinge's
   position from its rows "<h>.x", "<h>.y" of Phi_q (for a rigid member with centre r_m,
   d Phi_x / d phi_m = -s (y_P - y_m) and d Phi_y / d phi_m = s (x_P - x_m), s = +1 for
   member a, -1 for member b).
@@ -174,8 +175,8 @@ class Geometry:
             self.closed = (False,) * len(self.member_names)
         else:
             self._reconstruct()
-            self.closed = (True,) * len(self.rigid) + (False,) * (len(self.member_names)
-                                                                  - len(self.rigid))
+            closed = len(self.rigid) + len(self.particles)
+            self.closed = (True,) * closed + (False,) * (len(self.member_names) - closed)
         self._local: list[np.ndarray] | None = None  # each rigid member's outline, own frame
 
     def outlines(self, q) -> list[np.ndarray]:
@@ -191,7 +192,10 @@ class Geometry:
             ix, iy, iphi = (self.coords[f"{member}.{c}"] for c in ("x", "y", "phi"))
             c, s = np.cos(q[iphi]), np.sin(q[iphi])
             out.append(self._local[k] @ np.array([[c, s], [-s, c]]) + [q[ix], q[iy]])
-        return out + members[len(self.rigid):]
+        for member in self.particles:  # a square the size of the thickest bar
+            centre = np.array([q[self.coords[f"{member}.x"]], q[self.coords[f"{member}.y"]]])
+            out.append(member_outline(centre[None], self._particle_size))
+        return out + members[len(self.rigid) + len(self.particles):]
 
     def _local_outlines(self, q, hinges) -> list[np.ndarray]:
         """Each rigid member's outline in its own frame, from its points: those given, else
@@ -201,6 +205,8 @@ class Geometry:
                   for m in self.rigid]
         spans = [_span(p) for p in points if _span(p) > 0]
         size = float(np.median(spans)) if spans else 1.0
+        lengths = spans + [_span(shape) for shape in self.shapes(q)[0] if _span(shape) > 0]
+        self._particle_size = 0.04 * (float(np.median(lengths)) if lengths else 1.0)
         count = max(1, len(self.rigid) - 1)
         return [member_outline(p, size * (0.08 - 0.06 * k / count))
                 for k, p in enumerate(points)]
@@ -240,7 +246,7 @@ class Geometry:
         module = self.module
         coords = {name: i for i, name in enumerate(module.COORDINATES)}
         params = {name: i for i, name in enumerate(module.PARAMETERS)}
-        rigid, beams = [], {}
+        rigid, particles, beams = [], [], {}
         for name in module.COORDINATES:
             member, _, field = name.rpartition(".")
             if field == "phi" and f"{member}.x" in coords:
@@ -248,12 +254,17 @@ class Geometry:
             elif field == "x" and ".n" in member and f"{member}.dx" in coords:
                 beam, _, node = member.rpartition(".")
                 beams.setdefault(beam, []).append((int(node[1:]), coords[name]))
+            elif field == "x" and f"{member}.y" in coords and f"{member}.phi" not in coords:
+                particles.append(member)
         self.coords = coords
         self.rigid = rigid
+        self.particles = particles
+        self._particle_size = 0.05
         self._own: dict[str, list[int]] = {}  # the hinges on each rigid member
-        self.member_names = tuple(rigid) + tuple(beams)
+        self.member_names = tuple(rigid) + tuple(particles) + tuple(beams)
         self._rows = self._hinge_rows()
         self._drawers = [self._rigid_drawer(m, params) for m in rigid]
+        self._drawers += [self._particle_drawer(m) for m in particles]
         self._drawers += [self._beam_drawer(sorted(nodes)) for nodes in beams.values()]
 
     def _hinge_rows(self):
@@ -285,7 +296,7 @@ class Geometry:
                 phi = self.coords[f"{member}.phi"]
                 x, y = q[col], q[self.coords[f"{member}.y"]]
                 return np.array([x + s * J[ry, phi], y - s * J[rx, phi]])
-            if f"{member}.dx" in self.coords:  # a beam node
+            if f"{member}.dx" in self.coords or member in self.particles:  # a node, a particle
                 return np.array([q[col], q[self.coords[f"{member}.y"]]])
         return np.full(2, np.nan)
 
@@ -313,6 +324,14 @@ class Geometry:
         rows = {i for i, j in zip(self.module.PHI_Q_ROWS, self.module.PHI_Q_COLS)
                 if self.module.COORDINATES[j] == f"{member}.x"}
         return self._rows[k][0] in rows
+
+    def _particle_drawer(self, member: str):
+        ix, iy = self.coords[f"{member}.x"], self.coords[f"{member}.y"]
+
+        def draw(q, hinges):
+            return np.array([[q[ix], q[iy]]])
+
+        return draw
 
     def _beam_drawer(self, nodes):
         def draw(q, hinges):

@@ -83,7 +83,7 @@ class CModule:
     def _wrap(self, function: interface.Function):
         c_function = getattr(self.pointer, function.name)
         lengths = {"v": self.sizes["nv"], "vd": self.sizes["nv"], "q": self.NQ, "qd": self.NQ,
-                   "p": self.NP, "lam": self.NC}
+                   "p": self.NP, "lam": self.NC, "w": self.sizes["nw"]}
         shapes = [tuple(self.sizes[s] for s in r.shape) for r in function.results]
         view = ffi()
 
@@ -226,7 +226,7 @@ class NumpyModel:
         """values -> the module's arguments: q, qd as lists of floats, t as is, p as the
         run's parameter list (converted once per run: the core passes one p throughout)."""
         unpack, state = ffi().unpack, self._state
-        nq, nv, nc = self.sizes["nq"], self.sizes["nv"], self.sizes["nc"]
+        nq, nv, nc, nw = (self.sizes[k] for k in ("nq", "nv", "nc", "nw"))
 
         def parameters(pointer):
             if pointer != state.p_pointer:
@@ -236,7 +236,7 @@ class NumpyModel:
         converters = {"v": lambda c: unpack(c, nv), "vd": lambda c: unpack(c, nv),
                       "q": lambda c: unpack(c, nq),
                       "qd": lambda c: unpack(c, nq), "t": None, "p": parameters,
-                      "lam": lambda c: unpack(c, nc)}
+                      "lam": lambda c: unpack(c, nc), "w": lambda c: unpack(c, nw)}
         steps = tuple(converters[name] for name in function.args)
         return lambda values: [c if s is None else s(c) for s, c in zip(steps, values)]
 

@@ -35,9 +35,13 @@ LAYERS = ("base", "algebra", "system", "method", "mechanics", "run")  # bottom u
 LIBRARY_SOURCE = "targets/library.c"  # the public interface's entry points (depsim.h)
 # The targets built beside a generated model (a C target folder, an FMU) and placed next to
 # its model.h there: they include "model.h" and "core/include/depsim.h".
-PROGRAM_SOURCE = "targets/program/main.c"
-FMU_SOURCES = ("targets/fmu/fmi2.c", "targets/fmu/fmi2_variables.c", "targets/fmu/fmi2.h",
-               "targets/fmu/fmu.h")
+# The standalone program: its entry point (main.c, the options) and the files only it uses
+# (program.h; the output files, the JSON summary, the --input time tables).
+PROGRAM_SOURCES = ("targets/program/main.c", "targets/program/program.h",
+                   "targets/program/program_output.c", "targets/program/program_summary.c",
+                   "targets/program/program_tables.c")
+FMU_SOURCES = ("targets/fmu/fmi2.c", "targets/fmu/fmi2_variables.c", "targets/fmu/fmi2_state.c",
+               "targets/fmu/fmi2.h", "targets/fmu/fmu.h")
 CORE_FOLDER = "core"  # where a C target folder or an FMU's sources/ hold the files of core_files()
 # -fno-math-errno: sqrt is the instruction, not a libm call that may set errno (nothing reads
 # it); 4 % faster on INTELSAT V and two_link_flex, outputs bit for bit the same.
@@ -218,4 +222,4 @@ def core():
 
 __all__ = ["CBuildError", "cache_root", "compiler", "build_shared_library", "run_compilers",
            "core_files", "core_sources", "core_library_path", "ffi", "core", "SOURCE_DIR",
-           "CFLAGS", "LAYERS", "PROGRAM_SOURCE", "FMU_SOURCES", "CORE_FOLDER"]
+           "CFLAGS", "LAYERS", "PROGRAM_SOURCES", "FMU_SOURCES", "CORE_FOLDER"]

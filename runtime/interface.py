@@ -12,7 +12,11 @@ module with them.
 
 Arrays are float64 in SI units; q, qd have NQ entries, p NP; t is the time (s); v holds the
 values of the assembly tree's joints (NV: angles, rad, and slider displacements, m), vd their
-rates; lam holds NC multipliers (the constraint rows' forces). Matrices are row-major. A function writes every entry of its results (zeros included).
+rates; lam holds NC multipliers (the constraint rows' forces); w holds the NW run values an
+output may use, which the integrator keeps (RUN_VALUES: each hinge's lock torque, nan while
+free; the work each of the model's dissipators removed; the work of friction, of compliant
+latches and of impacts; the compliant latches' potential energy). Matrices are row-major. A
+function writes every entry of its results (zeros included).
 """
 
 from __future__ import annotations
@@ -21,9 +25,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-ABI = 11  # DEP_MODEL_ABI: bumped whenever the dep_model struct changes
+ABI = 12  # DEP_MODEL_ABI: bumped whenever the dep_model struct changes
 
-ARGUMENTS = ("v", "vd", "q", "qd", "t", "p", "lam")  # each function takes a subsequence, in order
+ARGUMENTS = ("v", "vd", "q", "qd", "t", "p", "lam", "w")  # each function takes a subsequence
 
 
 @dataclass(frozen=True, slots=True)
@@ -88,6 +92,10 @@ SIZES = (
     Size("nkz", "STIFFNESS_ROWS", "structural non-zeros of the stiffness (0: no beams)"),
     Size("nmz", "MASS_ROWS", "structural non-zeros of the mass matrix"),
     Size("nfix", "FIXED_PARAMETERS", "structural parameters (loop bounds, indices): fixed"),
+    Size("nw", "RUN_VALUES", "run values outputs may use: nh + nd + 4"),
+    Size("nsys", "SYSTEM_STATE", "the system's quantities of system_state"),
+    Size("nlim", "LIMITS", "range checks of the parameters (the model text's)"),
+    Size("nlimp", "LIMIT_PARAMETER_ROWS", "(range check, parameter) pairs it depends on"),
 )
 
 TABLES = (
@@ -133,6 +141,22 @@ TABLES = (
     Table("fixed_names", "FIXED_PARAMETERS", "const char *const", "nfix",
           "structural parameters: fixed in the model text, not in p"),
     Table("fixed_values", "FIXED_VALUES", "const int", "nfix", "their values"),
+    Table("run_value_names", "RUN_VALUES", "const char *const", "nw",
+          "\"<h>.torque\" per hinge, \"work.<dissipator>\" per dissipator, then "
+          "\"work.friction\", \"work.latch\", \"work.impacts\", \"energy.latch\""),
+    Table("system_state_names", "SYSTEM_STATE", "const char *const", "nsys",
+          "columns of system_state(): mass, com_x, com_y, momentum_x, momentum_y, "
+          "angular_momentum (about the centre of mass)"),
+    Table("limit_names", "LIMITS", "const char *const", "nlim",
+          "what each range check tests, e.g. \"rod.length\", in the model text's order"),
+    Table("limit_kinds", "LIMIT_KINDS", "const int", "nlim",
+          "enum dep_limit_kind: value > 0, >= 0, != 0, < bound, >= bound"),
+    Table("limit_messages", "LIMIT_MESSAGES", "const char *const", "nlim",
+          "the check broken in words, a printf format of the value and the bound (%g each, "
+          "in that order; %% a percent sign)"),
+    Table("limit_parameter_rows", "LIMIT_PARAMETER_ROWS", "const int", "nlimp",
+          "row-major sorted: range check i depends on parameter j"),
+    Table("limit_parameter_cols", "LIMIT_PARAMETER_COLS", "const int", "nlimp", ""),
 )
 
 SETTINGS = (("t_end", "T_END"), ("tol", "TOL"), ("dt_out", "DT_OUT"))
@@ -171,8 +195,12 @@ FUNCTIONS = (
              "-(J qd)_q qd per hinge: a locked hinge adds the row J qdd = hinge_gamma."),
     Function("hinge_properties", ("p",), (Output("H", ("nh", "nhp")),),
              "HINGE_PROPERTIES of each hinge (SI; nan: not given), shape (NH, NHP)."),
-    Function("outputs", ("q", "qd", "t", "p"), (Output("y", ("nout",)),),
-             "The named outputs, shape (NOUT,)."),
+    Function("outputs", ("q", "qd", "t", "p", "lam", "w"), (Output("y", ("nout",)),),
+             "The named outputs, shape (NOUT,), from the state, the model rows' multipliers "
+             "lam (NC,) and the run values w (NW,)."),
+    Function("system_state", ("q", "qd", "p"), (Output("s", ("nsys",)),),
+             "The whole system's mass (kg), centre of mass (m), momentum (N*s) and angular "
+             "momentum about its centre of mass (N*m*s), in the order of SYSTEM_STATE."),
     Function("energy", ("q", "qd", "t", "p"), (Output("E", ("ne",)),),
              "Kinetic energy and each potential (J), in the order of ENERGIES."),
     Function("dissipation", ("q", "qd", "t", "p"), (Output("P", ("nd",)),),
@@ -183,6 +211,9 @@ FUNCTIONS = (
     Function("stiffness", ("q", "p"), (Output("K", ("nkz",)), Output("D", ("nkz",))),
              "The stiff forces' Jacobian of a model with beams, K ~ -df/dq and D ~ -df/dqd, at "
              "(STIFFNESS_ROWS, STIFFNESS_COLS)."),
+    Function("parameter_checks", ("p",), (Output("value", ("nlim",)),
+                                          Output("bound", ("nlim",))),
+             "Each range check's value and its bound (kinds below and at_least; else 0)."),
 )
 
 FUNCTION_NAMES = tuple(f.name for f in FUNCTIONS)
@@ -220,6 +251,14 @@ def initial_state(module, p) -> tuple[np.ndarray, np.ndarray]:
             np.asarray(module.tree_tangent(v0, vd0, p), dtype=float))
 
 
+def outputs_at(module, q, qd, t: float, p, lam=None, w=None) -> np.ndarray:
+    """The module's outputs at a state (NOUT,), the multipliers `lam` (NC) and run values `w`
+    (NW) zero unless given: for analysis and tests of outputs that use neither."""
+    lam = np.zeros(int(module.NC)) if lam is None else lam
+    w = np.zeros(len(module.RUN_VALUES)) if w is None else w
+    return np.asarray(module.outputs(q, qd, t, p, lam, w), dtype=float)
+
+
 def check_module(module) -> None:
     """Raise TypeError naming what a module lacks of the interface (a programming error
     upstream: generated modules have everything)."""
@@ -235,7 +274,8 @@ def check_module(module) -> None:
 
 _C_ARGUMENTS = {"v": "const double *v", "vd": "const double *vd", "q": "const double *q",
                 "qd": "const double *qd",
-                "t": "double t", "p": "const double *p", "lam": "const double *lam"}
+                "t": "double t", "p": "const double *p", "lam": "const double *lam",
+                "w": "const double *w"}
 
 
 def c_declaration(function: Function, restrict: bool = False) -> str:

@@ -130,6 +130,8 @@ class Result:
     peak_loads: dict[str, PeakLoad]  # largest hinge loads over output times and every step
     deployment: Deployment  # latches, deployed or not, dissipated energy (docs/deployment.md)
     report_text: str  # the run's summary, as report() returns it
+    system_names: tuple[str, ...] = ()  # mass, com_x, com_y, momentum_x, momentum_y, ...
+    system: np.ndarray | None = None  # (n, NSYS) the whole system's, SI (system_state)
 
     @property
     def latch_hinges(self) -> tuple[str, ...]:
@@ -170,9 +172,10 @@ class Result:
         lines = [header] + [",".join(f"{v:.17g}" for v in row) for row in table]
         _write_atomic(path, "\n".join(lines) + "\n")
 
-    def summary(self) -> dict:
-        """Model, parameters, tolerances, statistics and events as plain JSON-ready data."""
-        return {
+    def summary(self, system: bool = False) -> dict:
+        """Model, parameters, tolerances, statistics and events as plain JSON-ready data;
+        `system`: with the system's momentum and energy balance (system_summary)."""
+        found = {
             "model": self.model,
             "method": self.method,
             "parameters": dict(zip(self.parameter_names, map(float, self.parameters))),
@@ -184,10 +187,39 @@ class Result:
             "peak_hinge_loads": {h: _finite(dataclasses.asdict(p))
                                  for h, p in self.peak_loads.items()},
         }
+        if system:
+            found["system"] = self.system_summary()
+        return found
 
-    def to_json(self, path) -> None:
-        """The `summary()` as JSON."""
-        _write_atomic(path, json.dumps(self.summary(), indent=2) + "\n")
+    def system_summary(self) -> dict:
+        """The system's quantities (mass, centre of mass, momentum, angular momentum about the
+        centre of mass; then the energy: kinetic + potential and what was dissipated) at the
+        start and the end, and their largest change from the start, SI."""
+        columns = list(zip(self.system_names, np.asarray(self.system).T)) \
+            if self.system is not None and len(self.times) else []
+        if len(self.times):  # kinetic + potential, what was dissipated, and their sum
+            energy, total = self.energy.sum(axis=1), self.total_energy()
+            columns += [("energy", energy), ("dissipated", total - energy),
+                        ("energy_balance", total)]
+        return {name: {"start": float(values[0]), "end": float(values[-1]),
+                       "largest_change": float(np.max(np.abs(values - values[0])))}
+                for name, values in columns}
+
+    def system_line(self) -> str:
+        """One line for a free-flying mechanism: its momentum and angular momentum about its
+        centre of mass at the end, and how far they moved from the start."""
+        found = self.system_summary()
+        if "momentum_x" not in found:
+            return ""
+        p, h = (found["momentum_x"], found["momentum_y"]), found["angular_momentum"]
+        change = max(p[0]["largest_change"], p[1]["largest_change"])
+        return (f"  system: momentum ({p[0]['end']:.6g}, {p[1]['end']:.6g}) N*s, angular "
+                f"momentum about its centre of mass {h['end']:.6g} N*m*s; largest change over "
+                f"the run {change:.2g} N*s and {h['largest_change']:.2g} N*m*s")
+
+    def to_json(self, path, system: bool = False) -> None:
+        """The `summary(system)` as JSON."""
+        _write_atomic(path, json.dumps(self.summary(system), indent=2) + "\n")
 
     def report(self) -> str:
         """Human-readable lines: deployment first (deployed or not, latches with time, rate and

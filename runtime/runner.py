@@ -250,14 +250,23 @@ def _deployment(module, d) -> Deployment:
                       _optional(d.time), float(d.friction_energy), float(d.impact_energy))
 
 
+def _system(module, q: np.ndarray, qd: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """The model's system_state (mass, centre of mass, momentum, angular momentum) at each
+    recorded state (n, NSYS)."""
+    names = tuple(getattr(module, "SYSTEM_STATE", ()))
+    if not names or not len(q):
+        return np.zeros((len(q), len(names)))
+    return np.array([module.system_state(a, b, p) for a, b in zip(q, qd)], dtype=float)
+
+
 def _result(module, r) -> Result:
     n = r.n
+    q, qd, p = _array(r.q, n, r.nq), _array(r.qd, n, r.nq), _array(r.params, module.NP)
     return Result(
         model=module.MODEL_NAME, method="iterative",
-        parameter_names=tuple(module.PARAMETERS), parameters=_array(r.params, module.NP),
+        parameter_names=tuple(module.PARAMETERS), parameters=p,
         tol=r.tol, constraint_tol=r.constraint_tol, t_end=r.t_end, dt_out=r.dt_out,
-        times=_array(r.times, n), coordinate_names=tuple(module.COORDINATES),
-        q=_array(r.q, n, r.nq), qd=_array(r.qd, n, r.nq),
+        times=_array(r.times, n), coordinate_names=tuple(module.COORDINATES), q=q, qd=qd,
         constraint_names=_names(r.row_names, r.n_rows),
         lam=_array(r.lam, n, r.n_rows), hinge_names=tuple(module.HINGES),
         hinge_angles=_array(r.hinge_angles, n, r.nh), hinge_rates=_array(r.hinge_rates, n, r.nh),
@@ -269,7 +278,9 @@ def _result(module, r) -> Result:
         dissipated=_array(r.dissipated, n, r.nd), stats=_stats(r.stats), events=_records(module, r),
         hinge_force=_array(r.hinge_force, n, r.nh, 2),
         hinge_torque=_array(r.hinge_torque, n, r.nh), peak_loads=_peaks(module, r),
-        deployment=_deployment(module, r.deployment), report_text=_text(r.report))
+        deployment=_deployment(module, r.deployment), report_text=_text(r.report),
+        system_names=tuple(getattr(module, "SYSTEM_STATE", ())),
+        system=_system(module, q, qd, p))
 
 
 # ---- Python events -------------------------------------------------------------------------------

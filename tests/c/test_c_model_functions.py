@@ -21,12 +21,12 @@ CONSTANTS = ("MODEL_NAME", "DESCRIPTION", "SOURCE_FILE", "SOURCE_SHA256", "DEPSI
              "CONSTRAINT_JOINTS", "CONSTRAINT_HINGES", "CONSTRAINT_SLIDERS", "PHI_Q_ROWS",
              "PHI_Q_COLS", "HINGES", "HINGE_PROPERTIES",
              "SLIDERS", "OUTPUTS", "OUTPUT_UNITS", "ENERGIES", "DISSIPATORS", "T_END", "TOL",
-             "DT_OUT")
+             "DT_OUT", "RUN_VALUES")
 
 
 def random_states(module, count=4, seed=11):
-    """(v, vd, q, qd, t, p, lam) near the assembled pose with parameters perturbed by up to
-    10 %, random multipliers."""
+    """(v, vd, q, qd, t, p, lam, w) near the assembled pose with parameters perturbed by up to
+    10 %, random multipliers and run values."""
     rng = np.random.default_rng(seed)
     for _ in range(count):
         p = np.array(module.PARAMETER_DEFAULTS) * rng.uniform(0.9, 1.1, module.NP)
@@ -35,7 +35,7 @@ def random_states(module, count=4, seed=11):
         v = module.tree_values(p)[0] + 0.1 * rng.standard_normal(len(module.TREE_JOINTS))
         vd = rng.standard_normal(len(module.TREE_JOINTS))
         yield (v, vd, q, rng.standard_normal(module.NQ), float(rng.uniform(0, 2)), p,
-               rng.standard_normal(module.NC))
+               rng.standard_normal(module.NC), rng.uniform(0.5, 2.0, len(module.RUN_VALUES)))
 
 
 def test_tables_and_settings_match(built):
@@ -47,8 +47,8 @@ def test_tables_and_settings_match(built):
 def test_functions_match_numpy(built, function):
     numpy_function, c_function = getattr(built.numpy, function), getattr(built.c, function)
     args = tuple(inspect.signature(numpy_function).parameters)
-    for v, vd, q, qd, t, p, lam in random_states(built.numpy):
-        values = {"v": v, "vd": vd, "q": q, "qd": qd, "t": t, "p": p, "lam": lam}
+    for v, vd, q, qd, t, p, lam, w in random_states(built.numpy):
+        values = {"v": v, "vd": vd, "q": q, "qd": qd, "t": t, "p": p, "lam": lam, "w": w}
         expected = numpy_function(*(values[a] for a in args))
         got = c_function(*(values[a] for a in args))
         for e, g in zip(*(x if isinstance(x, tuple) else (x,) for x in (expected, got))):

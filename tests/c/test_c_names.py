@@ -13,9 +13,10 @@ import pytest
 
 import handmade
 from depsim.codegen import derive, load_generated, numpy_source
-from depsim.codegen.c_emit import c_program_name, compile_c
+from depsim.codegen.c_emit import PROGRAM_FILES, c_program_name, compile_c
 from depsim.codegen.c_printer import c_comment, c_file_stem, c_string
 from depsim.dsl import ir
+from depsim.runtime import simulate
 from depsim.runtime.binding import build_model_library, load_c_module
 from depsim.runtime.core import compiler
 
@@ -52,7 +53,9 @@ def hostile(tmp_path_factory):
 
 def test_hostile_names_compile_warning_free(hostile, tmp_path):
     _, folder, _ = hostile
-    for name in ("model.c", "main.c"):
+    for name in ("model.c", *PROGRAM_FILES):
+        if not name.endswith(".c"):
+            continue
         run = subprocess.run([*compiler(), "-std=c99", "-O2", "-Wall", "-Wextra", "-Wpedantic",
                               "-Werror", "-c", name, "-o", str(tmp_path / f"{name}.o")],
                              cwd=folder, capture_output=True, text=True)
@@ -94,6 +97,22 @@ def test_program_name_is_an_identifier(hostile):
     assert run.returncode == 0, run.stderr
     listing = subprocess.run([str(folder / name), "--list"], capture_output=True, text=True)
     assert 'cable"k*/' in listing.stdout
+
+
+def test_hostile_names_in_the_json_summary(hostile, tmp_path):
+    """Quotes, backslashes, a new line and non-ASCII in names: the program's summary is the
+    binding's json.dumps, byte for byte."""
+    model, folder, _ = hostile
+    name = c_program_name(model)
+    assert subprocess.run(["make", "-C", str(folder), name], capture_output=True).returncode == 0
+    ran = subprocess.run([str(folder / name), "--t-end", "0.05", "--summary",
+                          tmp_path / "program.json"], capture_output=True, text=True)
+    assert ran.returncode == 0, ran.stderr
+    module = load_c_module(build_model_library(folder))
+    simulate(module, t_end=0.05).to_json(tmp_path / "binding.json")
+    written = (tmp_path / "program.json").read_bytes()
+    assert written == (tmp_path / "binding.json").read_bytes()
+    assert b'"h2\\"\\\\"' in written and written.isascii()
 
 
 @pytest.mark.parametrize("name, stem", [("pendulum", "pendulum"), ("9lives", "model_9lives"),

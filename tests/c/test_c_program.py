@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from depsim.codegen.c_emit import c_program_name, c_sources, compile_c
+from depsim.codegen.c_emit import PROGRAM_FILES, c_program_name, c_sources, compile_c
 from depsim.runtime import simulate
 from depsim.runtime.core import compiler
 
@@ -30,10 +30,13 @@ def cc(*arguments, cwd):
                           capture_output=True, text=True)
 
 
+PROGRAM_C = [name for name in PROGRAM_FILES if name.endswith(".c")]  # main.c, program_*.c
+
+
 def sources(folder: Path) -> list[str]:
     """The library's C files of a C target folder (its model*.c and core/), as relative paths."""
     return sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*.c")
-                  if p.name != "main.c" and "build" not in p.relative_to(folder).parts)
+                  if p.name not in PROGRAM_FILES and "build" not in p.relative_to(folder).parts)
 
 
 def test_emission_is_deterministic(example_builds, tmp_path):
@@ -105,7 +108,7 @@ def test_long_functions_in_their_own_files_give_the_same_program(example_builds,
 
 def test_runtime_compiles_warning_free(example_builds, tmp_path):
     folder = example_builds("pendulum").folder
-    for name in sources(folder) + ["main.c"]:
+    for name in sources(folder) + PROGRAM_C:
         run = cc(*STRICT, "-c", name, "-o", tmp_path / f"{name.replace('/', '_')}.o",
                  cwd=folder)
         assert run.returncode == 0, f"{name}:\n{run.stderr}"
@@ -122,7 +125,7 @@ def test_models_compile_warning_free(example_builds, tmp_path, name):
 def test_runs_clean_under_sanitizers(example_builds, tmp_path, name):
     folder = example_builds(name).folder
     program = tmp_path / "checked"
-    build = cc(*SANITIZE, "-o", program, "main.c", *sources(folder), "-lm", cwd=folder)
+    build = cc(*SANITIZE, "-o", program, *PROGRAM_C, *sources(folder), "-lm", cwd=folder)
     if build.returncode != 0 and "sanitize" in build.stderr:
         pytest.skip(f"the compiler has no sanitizer runtime: {build.stderr[:200]}")
     assert build.returncode == 0, build.stderr
@@ -137,7 +140,7 @@ def test_mechanics_run_clean_under_sanitizers(tmp_path):
     from depsim.dsl import load_model
     folder = compile_c(load_model(HERE / "models" / "pendulum_stops.dep"), tmp_path / "c")
     program = tmp_path / "checked"
-    build = cc(*SANITIZE, "-o", program, "main.c", *sources(folder), "-lm", cwd=folder)
+    build = cc(*SANITIZE, "-o", program, *PROGRAM_C, *sources(folder), "-lm", cwd=folder)
     if build.returncode != 0 and "sanitize" in build.stderr:
         pytest.skip("the compiler has no sanitizer runtime")
     assert build.returncode == 0, build.stderr
@@ -278,3 +281,18 @@ def test_program_lists_parameters_and_helps(made):
     assert listing.returncode == 0 and "crank_pin.stiffness" in listing.stdout
     helped = subprocess.run([str(program), "--help"], capture_output=True, text=True)
     assert helped.returncode == 0 and "plain number in SI units" in helped.stdout
+
+
+def test_program_prints_numbers_as_python_does(made):
+    """--help's defaults and --list's values in the shortest form that reads back exactly,
+    Python's repr (0.01, not 0.01000000000000000021)."""
+    built, _, program = made
+    helped = subprocess.run([str(program), "--help"], capture_output=True, text=True).stdout
+    for option, value in (("--t-end", built.c.T_END), ("--dt-out", built.c.DT_OUT),
+                          ("--tol", built.c.TOL)):
+        (line,) = [line for line in helped.splitlines() if line.strip().startswith(option)]
+        assert line.endswith(f"(default {value!r})"), line
+    listing = subprocess.run([str(program), "--list"], capture_output=True, text=True).stdout
+    rows = {line.split()[0]: line.split()[-1] for line in listing.splitlines()[1:]}
+    for name, value in zip(built.c.PARAMETERS, built.c.PARAMETER_DEFAULTS):
+        assert rows[name] == repr(value), name

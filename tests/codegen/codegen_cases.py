@@ -1,5 +1,6 @@
-"""The models codegen tests run on: every example (through the parser), plus the hand-built IR
-of tests/codegen/handmade.py for what the examples do not cover."""
+"""The models codegen tests run on: every example (through the parser), the models of
+tests/codegen/models (what the examples do not use, written in the language), plus the
+hand-built IR of tests/codegen/handmade.py."""
 
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ import handmade
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = ROOT / "examples"
+MODELS = Path(__file__).resolve().parent / "models"
 
 
 def load_example(name: str) -> ir.Model:
@@ -36,6 +38,7 @@ HANDMADE = {
 def case_names() -> list[str]:
     """Names of every model case: `example:<name>` and `handmade:<name>`."""
     return ([f"example:{name}" for name in example_names()]
+            + [f"model:{path.stem}" for path in sorted(MODELS.glob("*.dep"))]
             + [f"handmade:{name}" for name in HANDMADE] + ["fake_beam:beam_chain"])
 
 
@@ -44,6 +47,8 @@ def build(case: str, monkeypatch) -> ir.Model:
     kind, name = case.split(":")
     if kind == "example":
         return load_example(name)
+    if kind == "model":
+        return load_model(MODELS / f"{name}.dep")
     if kind == "fake_beam":
         monkeypatch.setitem(sys.modules, "depsim.codegen.beam", fake_beam)
         return handmade.beam_chain()

@@ -15,6 +15,8 @@ class State:
     qd: np.ndarray
     t: float
     p: np.ndarray
+    lam: np.ndarray  # multipliers of the model's rows (outputs may use them)
+    w: np.ndarray  # run values (outputs may use them)
 
 
 def random_states(module: ModuleType, count: int = 3, seed: int = 7) -> list[State]:
@@ -25,5 +27,7 @@ def random_states(module: ModuleType, count: int = 3, seed: int = 7) -> list[Sta
         p = np.array(module.PARAMETER_DEFAULTS) * rng.uniform(0.9, 1.1, module.NP)
         q0, _ = initial_state(module, p)
         q = q0 + 0.05 * rng.standard_normal(module.NQ)
-        states.append(State(q, rng.standard_normal(module.NQ), float(rng.uniform(0, 2)), p))
+        states.append(State(q, rng.standard_normal(module.NQ), float(rng.uniform(0, 2)), p,
+                            rng.standard_normal(module.NC),
+                            rng.uniform(0.5, 2.0, len(module.RUN_VALUES))))
     return states

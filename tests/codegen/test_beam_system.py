@@ -23,7 +23,7 @@ from depsim.codegen import compile_numpy, load_generated
 from depsim.dsl import load_model
 from depsim.runtime import simulate
 from depsim.runtime.interface import dense
-from depsim.runtime.interface import initial_state
+from depsim.runtime.interface import initial_state, outputs_at
 
 G = 9.81  # m/s^2
 CANTILEVER_ROOTS = (1.8751040687119611, 4.6940911329741746)  # cos b cosh b = -1
@@ -157,7 +157,7 @@ def test_static_equilibrium_of_the_generated_forces_at_eight_elements(tmp_path):
                                       method="lm", xtol=1e-14, ftol=1e-14)
     assert np.max(np.abs(solution.fun)) < 1e-9
     q = solution.x[:nq]
-    tip = -module.outputs(q, zero, 0.0, p)[module.OUTPUTS.index("tip_y")]
+    tip = -outputs_at(module, q, zero, 0.0, p)[module.OUTPUTS.index("tip_y")]
     assert tip == pytest.approx(spring_clamped_deflection(**STATIC), rel=2e-3)
     # ground reaction of the root hinge: the rows are r_ground - r_arm, so it is +lambda
     weight = (STATIC["rhoA"] * STATIC["L"] + STATIC["m"]) * G

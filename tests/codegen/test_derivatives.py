@@ -133,7 +133,8 @@ def test_module_matches_sympy(compiled):
     """The printed code evaluates to what the symbolic system does (checks lower and emit)."""
     m, system = compiled.module, compiled.system
     s = random_states(m, count=1)[0]
-    values = dict(zip(system.q, s.q)) | dict(zip(system.qd, s.qd)) | dict(zip(system.p, s.p))
+    values = dict(zip(system.q, s.q)) | dict(zip(system.qd, s.qd)) | dict(zip(system.p, s.p)) \
+        | dict(zip(system.lam, s.lam)) | dict(zip(system.w, s.w))
     values[system.t] = s.t
 
     def symbolic(matrix):
@@ -141,7 +142,8 @@ def test_module_matches_sympy(compiled):
 
     assert_close(m.force(s.q, s.qd, s.t, s.p), symbolic(system.force)[:, 0], rtol=1e-12)
     assert_close(m.gamma(s.q, s.qd, s.t, s.p), symbolic(system.gamma)[:, 0], rtol=1e-12)
-    assert_close(m.outputs(s.q, s.qd, s.t, s.p), symbolic(system.outputs)[:, 0], rtol=1e-12)
+    assert_close(m.outputs(s.q, s.qd, s.t, s.p, s.lam, s.w), symbolic(system.outputs)[:, 0],
+                 rtol=1e-12)
     assert_close(m.energy(s.q, s.qd, s.t, s.p), symbolic(system.energy)[:, 0], rtol=1e-12)
 
 

@@ -18,7 +18,7 @@ import handmade
 from codegen_cases import load_example
 from depsim import __version__
 from depsim.codegen import compile_numpy, load_generated, numpy_source
-from depsim.runtime.interface import initial_state
+from depsim.runtime.interface import initial_state, outputs_at
 
 GOLDEN = Path(__file__).resolve().parents[1] / "golden"
 HERE = Path(__file__).resolve().parent
@@ -31,7 +31,7 @@ INTERFACE = {
     "gamma": ("q", "qd", "t", "p"), "force": ("q", "qd", "t", "p"),
     "hinge_angles": ("q", "p"), "hinge_rates": ("q", "qd", "p"), "hinge_jacobian": ("q", "p"),
     "hinge_gamma": ("q", "qd", "p"), "hinge_properties": ("p",),
-    "outputs": ("q", "qd", "t", "p"), "energy": ("q", "qd", "t", "p"),
+    "outputs": ("q", "qd", "t", "p", "lam", "w"), "energy": ("q", "qd", "t", "p"),
     "dissipation": ("q", "qd", "t", "p"),
 }
 CONSTANTS = ("MODEL_NAME", "DESCRIPTION", "SOURCE_FILE", "SOURCE_SHA256", "DEPSIM_VERSION",
@@ -40,7 +40,7 @@ CONSTANTS = ("MODEL_NAME", "DESCRIPTION", "SOURCE_FILE", "SOURCE_SHA256", "DEPSI
              "CONSTRAINT_JOINTS", "CONSTRAINT_HINGES", "CONSTRAINT_SLIDERS", "PHI_Q_ROWS",
              "PHI_Q_COLS", "HINGES", "HINGE_PROPERTIES",
              "SLIDERS", "OUTPUTS", "OUTPUT_UNITS", "ENERGIES", "DISSIPATORS", "T_END", "TOL",
-             "DT_OUT")
+             "DT_OUT", "RUN_VALUES")
 
 
 def test_pendulum_golden(request):
@@ -107,7 +107,7 @@ def test_module_shapes(compiled):
     assert m.hinge_jacobian(q, p).shape == (len(m.HINGE_JACOBIAN_ROWS),)
     assert m.hinge_gamma(q, qd, p).shape == (len(m.HINGES),)
     assert m.hinge_properties(p).shape == (len(m.HINGES), len(m.HINGE_PROPERTIES))
-    assert m.outputs(q, qd, 0.0, p).shape == (len(m.OUTPUTS),)
+    assert outputs_at(m, q, qd, 0.0, p).shape == (len(m.OUTPUTS),)
     assert m.energy(q, qd, 0.0, p).shape == (len(m.ENERGIES),)
     assert m.dissipation(q, qd, 0.0, p).shape == (len(m.DISSIPATORS),)
 

@@ -322,12 +322,25 @@ def test_placements_breadth_first_hinges_before_sliders_and_loops():
     assert m.loop_joints == ((JointKind.HINGE, 2),)
 
 
-def test_floating_members_form_their_own_tree_with_a_warning():
-    m = model(bar("a") + bar("free") + bar("rider") + "hinge h1 joins ground.origin to a.a\n"
-              "hinge h2 joins free.b to rider.a\n")
+def test_floating_members_form_their_own_tree_with_one_warning():
+    m = model(bar("a") + bar("loose") + bar("rider") + "hinge h1 joins ground.origin to a.a\n"
+              "hinge h2 joins loose.b to rider.a\n")
     assert m.placements[-1] == Placement(JointKind.HINGE, 1, body(1), body(2))
-    assert [(w.code, w.span.line) for w in m.warnings] == [("W001", 3), ("W001", 4)]
-    assert "initial pose is the origin" in m.warnings[0].message
+    assert [(w.code, w.span.line) for w in m.warnings] == [("W001", 3)]
+    assert "with bar 'rider', from the origin, at rest" in m.warnings[0].message
+    assert m.warnings[0].hint.endswith("in `initial`")
+
+
+def test_a_free_joint_places_a_floating_member_and_silences_the_warning():
+    m = model(bar("loose") + bar("rider") + "hinge h2 joins loose.b to rider.a\n"
+              "free fly joins ground.origin to loose.cm\n"
+              "initial { fly.x = 2 m; fly.angle = 30 deg; fly.omega = 0.5 rad/s }\n")
+    assert not m.warnings
+    assert m.placements[0] == Placement(JointKind.FREE, 0, Member(MemberKind.GROUND, 0),
+                                        body(0))
+    assert m.free_joints[0].held == (1, 0, 3)
+    names = [p.name for p in m.params]
+    assert {"fly.initial_x", "fly.initial_angle", "fly.initial_omega"} <= set(names)
 
 
 def test_model_identity():

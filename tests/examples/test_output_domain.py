@@ -70,7 +70,8 @@ def test_the_numpy_module_gives_ieee_values_without_raising_or_warning(sims):
         q[index] = angle
         with warnings.catch_warnings():
             warnings.simplefilter("error")
-            y = module.outputs(list(q), [0.0] * module.NQ, 0.0, list(p))
+            y = module.outputs(list(q), [0.0] * module.NQ, 0.0, list(p), [0.0] * module.NC,
+                               [0.0] * len(module.RUN_VALUES))
         theta, root, logarithm, arc, inverse = y
         assert theta == pytest.approx(angle, abs=1e-15)
         if angle == 0.0:

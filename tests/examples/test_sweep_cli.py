@@ -87,6 +87,35 @@ def test_values_out_of_the_models_ranges_are_failed_runs_with_their_reason(cli, 
     assert done.returncode == 2 and friction in done.stderr  # the same check as --set
 
 
+def test_the_core_refuses_the_runs_the_study_refuses_in_the_same_words():
+    """The runs a study records as out of the model's ranges (depsim.dsl.check_parameters)
+    are those the integrator core refuses, with the same message: run with the parameter
+    vector the study recorded, and in a study without the Python check, where the core's
+    refusal is the run's failure."""
+    import depsim
+    import pytest
+
+    from depsim.runtime import simulate
+    from depsim.runtime.sweep import sweep as run_sweep
+
+    sim = depsim.load(EXAMPLES / "pendulum.dep").compile("c")
+    grid = ["L=-1:1:3", "pivot.slip_rate=-0.01:0.01:2"]
+    checked = depsim.sweep(sim, grid=grid, t_end=0.2, scheduler="inline", progress=False)
+    unchecked = run_sweep(sim.module.__file__, grid=grid, t_end=0.2, scheduler="inline",
+                          progress=False)
+    failed = checked["failed"].values
+    assert failed.tolist() == [True, True, True, True, True, False]
+    assert unchecked["failed"].values.tolist() == failed.tolist()
+    prefix = "out of the model's ranges: "
+    for run in np.flatnonzero(failed):
+        recorded = str(checked["error"].values[run])
+        assert recorded.startswith(prefix)
+        with pytest.raises(ValueError) as caught:
+            simulate(sim.module, checked["parameter_values"].values[run], t_end=0.2)
+        assert str(caught.value) == recorded.removeprefix(prefix)
+        assert str(unchecked["error"].values[run]) == f"ValueError: {caught.value}"
+
+
 def test_a_limit_gives_the_probability_of_exceeding_it(cli, tmp_path):
     out = tmp_path / "study.nc"
     done = cli("sweep", EXAMPLES / "pendulum.dep", "--grid", "m=1kg:3kg:3", "--t-end", "0.5",

@@ -103,13 +103,14 @@ def test_archive_content(fmu_path):
             "sources/fmi2.c", "sources/fmi2.h", "sources/fmu.h", "sources/fmu_variables.c",
             "sources/model.c", "sources/model.h",
             "sources/core/include/depsim.h", "sources/core/run/run.c"} <= names
-    assert "sources/main.c" not in names
+    assert "sources/main.c" not in names and not any("program" in n for n in names)
     (build,) = description.buildConfigurations  # fmpy reads FMI 2.0's SourceFiles so
     sources = build.sourceFileSets[0].sourceFiles
     assert "fmi2.c" in sources and "model.c" in sources
     for source in sources:
         assert f"sources/{source}" in names
-    assert description.coSimulation.canGetAndSetFMUstate is False
+    assert description.coSimulation.canGetAndSetFMUstate is True
+    assert description.coSimulation.canSerializeFMUstate is True
     assert description.coSimulation.canInterpolateInputs is True
 
 

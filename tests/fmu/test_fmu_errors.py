@@ -67,11 +67,93 @@ def test_null_and_non_finite_arguments(fmu_path, slave):
     assert "vr or value is NULL" in s.log.errors()[-1]
 
 
-def test_state_functions_unsupported(fmu_path, slave):
+def test_values_out_of_the_models_ranges_are_refused_when_set(fmu_path, slave):
+    """fmi2SetReal refuses a value that breaks a range of the model text (as `depsim run
+    --set` does), with the reason, before fmi2EnterInitializationMode and in initialization
+    mode alike; nothing is stored; fmi2Reset starts afresh and the model's values run."""
+    s = slave(fmu_path("fourbar"))
+    _raises_error(s.fmu.setReal, [s.vr["crank"]], [-0.1])
+    assert s.log.errors() == ["fmi2SetReal: crank_bar.length must be positive, got -0.1 m "
+                              "(from crank = -0.1 m)"]
+    s.fmu.reset()
+    s.fmu.setupExperiment(startTime=0.0)
+    s.fmu.enterInitializationMode()
+    assert s.real("crank") == 0.1  # the refused value was not kept
+    _raises_error(s.fmu.setReal, [s.vr["drive.damping"]], [-0.5])
+    assert s.log.errors()[-1] == ("fmi2SetReal: drive.damping must not be negative, got -0.5 "
+                                  "N*m*s/rad")
+    _raises_error(s.fmu.exitInitializationMode)  # the instance refuses to go on
+    s.fmu.reset()
+    s.start({"drive.damping": 0.5, "crank": 0.12})
+    s.fmu.doStep(0.0, 0.1)
+    assert s.real("crank") == 0.12
+
+
+def test_the_ranges_of_springs_particles_and_hold_downs_are_refused_when_set(fmu_path, slave):
+    """examples/free_flyer.dep: a spring's stiffness and free length, a member's mass and the
+    hold-downs' release (from the parameter t_release) are held to the model text's ranges as
+    any other value; the model's values then run."""
+    s = slave(fmu_path("free_flyer"))
+    _raises_error(s.fmu.setReal, [s.vr["kick.stiffness"]], [-1000.0])
+    assert s.log.errors() == ["fmi2SetReal: kick.stiffness must not be negative, got -1000 N/m"]
+    s.fmu.reset()
+    s.fmu.setupExperiment(startTime=0.0)
+    s.fmu.enterInitializationMode()
+    _raises_error(s.fmu.setReal, [s.vr["t_release"]], [-1.0])
+    assert s.log.errors()[-1] == (
+        "fmi2SetReal: h1.release must not be negative, got -1 s (from t_release = -1 s); "
+        "h2.release must not be negative, got -1 s (from t_release = -1 s)")
+    s.fmu.reset()
+    s.start({"kick.free_length": 0.1, "t_release": 0.5})
+    s.fmu.doStep(0.0, 0.1)
+    assert s.real("t_release") == 0.5
+
+
+def test_a_range_between_two_parameters_is_checked_once_both_can_be_set(fmu_path, slave):
+    """stop_min < stop_max: one call setting both is checked at once; separate calls may pass
+    through a pair out of order, and the pair is checked when initialization ends."""
+    s = slave(fmu_path("stops"))
+    stop_min, stop_max = s.vr["pivot.stop_min"], s.vr["pivot.stop_max"]
+    s.fmu.setupExperiment(startTime=0.0)
+    s.fmu.enterInitializationMode()
+    _raises_error(s.fmu.setReal, [stop_min, stop_max], [2.0, 1.5])
+    assert s.log.errors() == ["fmi2SetReal: pivot.stop_min must be less than pivot.stop_max, "
+                              "got 2 rad and 1.5 rad (from pivot.stop_max = 1.5 rad)"]
+    s.fmu.reset()
+    s.start({"pivot.stop_min": 2.0, "pivot.stop_max": 3.0, "pivot.initial_angle": 2.5})
+    s.fmu.doStep(0.0, 0.1)
+    s.fmu.reset()
+    s.fmu.setupExperiment(startTime=0.0)
+    s.fmu.enterInitializationMode()
+    s.fmu.setReal([stop_min], [2.0])  # stop_max is still 75 deg
+    _raises_error(s.fmu.exitInitializationMode)
+    assert s.log.errors()[-1] == ("pivot.stop_min must be less than pivot.stop_max, got 2 rad "
+                                  "and 1.309 rad")
+
+
+def test_states_that_are_no_states_of_this_fmu(fmu_path, slave):
+    """Bytes of another FMU, or damaged, and a state pointer that is none: fmi2Error with the
+    reason, the instance as it was before the call otherwise."""
+    from fmpy.fmi2 import fmi2FMUstate
+
     s = slave(fmu_path("pendulum"))
     s.start()
-    _raises_error(s.fmu.getFMUstate)
-    assert "canGetAndSetFMUstate = false" in s.log.errors()[-1]
+    s.fmu.doStep(0.0, 0.1)
+    data = s.fmu.serializeFMUstate(s.fmu.getFMUstate())
+    t = slave(fmu_path("motor"))
+    t.start()
+    _raises_error(t.fmu.deSerializeFMUstate, data)
+    assert "are not a state of this FMU" in t.log.errors()[-1]
+    u = slave(fmu_path("pendulum"))
+    u.start()
+    damaged = bytearray(data)
+    damaged[-20] ^= 0xFF
+    _raises_error(u.fmu.deSerializeFMUstate, bytes(damaged))
+    assert "these bytes are not a saved state of this model's run" in u.log.errors()[-1]
+    v = slave(fmu_path("pendulum"))
+    v.start()
+    _raises_error(v.fmu.setFMUstate, fmi2FMUstate())  # NULL
+    assert "FMUstate is not a state of this FMU" in v.log.errors()[-1]
 
 
 def test_loops_that_cannot_close(fmu_path, slave):

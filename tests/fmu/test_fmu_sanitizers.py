@@ -1,7 +1,8 @@
 """The FMU's binary built with AddressSanitizer and UBSan, driven by fmpy in a fresh Python
 (LD_PRELOAD of the compiler's libasan): a deployment with latches, an input step, and the
 error paths (unknown value reference, a parameter after initialization, a solver failure
-inside a step, state functions) run without a finding."""
+inside a step), FMU states saved, written, read back and set in the same instance and
+in another, run without a finding."""
 
 from __future__ import annotations
 
@@ -46,8 +47,24 @@ SCRIPT = textwrap.dedent("""
     s.start()
     refused(s.fmu.setReal, [s.vr["rod.mass"]], [3.0])
     s.fmu.reset()
-    refused(s.fmu.getFMUstate)
+    s.start()
+    for k in range(20):
+        s.fmu.setReal([s.vr["T_motor"]], [0.2 * k])
+        s.fmu.doStep(0.05 * k, 0.05)
+    state = s.fmu.getFMUstate()
+    data = s.fmu.serializeFMUstate(state)
+    s.fmu.doStep(1.0, 0.5)
+    s.fmu.setFMUstate(state)
+    s.fmu.setFMUstate(s.fmu.deSerializeFMUstate(data))
+    s.fmu.doStep(1.0, 0.5)
+    refused(s.fmu.deSerializeFMUstate, data[:-3])
     s.fmu.reset()
+    other = Slave(motor)
+    other.fmu.setFMUstate(other.fmu.deSerializeFMUstate(data))
+    other.fmu.doStep(1.0, 0.5)
+    other.fmu.freeFMUstate(other.fmu.getFMUstate())
+    other.free()
+    s.fmu.freeFMUstate(state)
     s.start({"pivot.slip_rate": 1e-6}, stop_time=1000.0)
     t = 0.0
     try:

@@ -30,7 +30,7 @@ CONSTRAINT_SLIDERS = (-1, -1)
 PHI_Q_ROWS = (0, 0, 1, 1)
 PHI_Q_COLS = (0, 2, 1, 2)
 HINGES = ('pivot',)
-HINGE_PROPERTIES = ('latch', 'latch_stiffness', 'latch_damping', 'stop_min', 'stop_max', 'friction', 'static_friction', 'slip_rate')
+HINGE_PROPERTIES = ('latch', 'latch_stiffness', 'latch_damping', 'stop_min', 'stop_max', 'friction', 'static_friction', 'slip_rate', 'release')
 SLIDERS = ()
 OUTPUTS = ('theta', 'omega', 'tip_x', 'tip_y')
 OUTPUT_UNITS = ('rad', 'rad/s', 'm', 'm')
@@ -49,6 +49,13 @@ MASS_ROWS = (0, 1, 2)
 MASS_COLS = (0, 1, 2)
 FIXED_PARAMETERS = ()
 FIXED_VALUES = ()
+RUN_VALUES = ('pivot.torque', 'work.friction', 'work.latch', 'work.impacts', 'energy.latch')
+SYSTEM_STATE = ('mass', 'com_x', 'com_y', 'momentum_x', 'momentum_y', 'angular_momentum')
+LIMITS = ('rod.length', 'rod.mass', 'rod.inertia', 'pivot.slip_rate')
+LIMIT_KINDS = (0, 0, 0, 0)
+LIMIT_MESSAGES = ('rod.length must be positive, got %g m', 'rod.mass must be positive, got %g kg', 'rod.inertia must be positive, got %g kg*m^2', 'pivot.slip_rate must be positive, got %g rad/s')
+LIMIT_PARAMETER_ROWS = (0, 1, 2, 2, 3)
+LIMIT_PARAMETER_COLS = (0, 1, 0, 1, 5)
 
 T_END = 10.0
 TOL = 1e-09
@@ -193,7 +200,7 @@ def hinge_gamma(q, qd, p):
 
 def hinge_properties(p):
     """HINGE_PROPERTIES of each hinge (SI; nan: not given), shape (NH, NHP)."""
-    H = numpy.zeros((1, 8))
+    H = numpy.zeros((1, 9))
     H[0, 0] = math.nan
     H[0, 1] = math.nan
     H[0, 2] = math.nan
@@ -202,20 +209,23 @@ def hinge_properties(p):
     H[0, 5] = math.nan
     H[0, 6] = math.nan
     H[0, 7] = p[5]
+    H[0, 8] = math.nan
     return H
 
 
-def outputs(q, qd, t, p):
-    """The named outputs, shape (NOUT,)."""
+def outputs(q, qd, t, p, lam, w):
+    """The named outputs, shape (NOUT,), from the state, the model rows' multipliers lam (NC,) and the run values w (NW,)."""
     # IEEE arithmetic, as in C: nan or inf outside a function's domain, never an exception
     q = numpy.asarray(q, dtype=numpy.float64)
     qd = numpy.asarray(qd, dtype=numpy.float64)
     p = numpy.asarray(p, dtype=numpy.float64)
+    lam = numpy.asarray(lam, dtype=numpy.float64)
+    w = numpy.asarray(w, dtype=numpy.float64)
     with numpy.errstate(all="ignore"):
-        return _outputs(q, qd, t, p)
+        return _outputs(q, qd, t, p, lam, w)
 
 
-def _outputs(q, qd, t, p):
+def _outputs(q, qd, t, p, lam, w):
     y = numpy.zeros((4,))
     y[0] = p[4] + q[2]
     y[1] = qd[2]
@@ -223,6 +233,18 @@ def _outputs(q, qd, t, p):
     y[2] = q[0] + x0*numpy.cos(q[2])
     y[3] = q[1] + x0*numpy.sin(q[2])
     return y
+
+
+def system_state(q, qd, p):
+    """The whole system's mass (kg), centre of mass (m), momentum (N*s) and angular momentum about its centre of mass (N*m*s), in the order of SYSTEM_STATE."""
+    s = numpy.zeros((6,))
+    s[0] = p[1]
+    s[1] = q[0]
+    s[2] = q[1]
+    s[3] = p[1]*qd[0]
+    s[4] = p[1]*qd[1]
+    s[5] = (1/12)*(p[0]*p[0])*p[1]*qd[2]
+    return s
 
 
 def energy(q, qd, t, p):
@@ -256,3 +278,14 @@ def stiffness(q, p):
     K = numpy.zeros((0,))
     D = numpy.zeros((0,))
     return K, D
+
+
+def parameter_checks(p):
+    """Each range check's value and its bound (kinds below and at_least; else 0)."""
+    value = numpy.zeros((4,))
+    bound = numpy.zeros((4,))
+    value[0] = p[0]
+    value[1] = p[1]
+    value[2] = (1/12)*(p[0]*p[0])*p[1]
+    value[3] = p[5]
+    return value, bound

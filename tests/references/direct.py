@@ -149,7 +149,8 @@ def solve_direct(module, params=None, t_end=None, dt_out=None, tol=None, events=
     return DirectSolution(
         times=np.array([r[0] for r in rows]), q=np.array([r[1][:nq] for r in rows]),
         qd=np.array([r[1][nq:] for r in rows]), lam=np.array([r[2][:n_model] for r in rows]),
-        outputs=np.array([module.outputs(r[1][:nq], r[1][nq:], r[0], solver.p) for r in rows]),
+        outputs=np.array([module.outputs(r[1][:nq], r[1][nq:], r[0], solver.p, r[2][:n_model],
+                                          np.zeros(len(module.RUN_VALUES))) for r in rows]),
         events=found, evaluations=solver.evaluations, steps=steps)
 
 

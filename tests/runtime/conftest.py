@@ -32,3 +32,26 @@ def build(tmp_path_factory):
         return cache[text]
 
     return get
+
+
+@pytest.fixture(scope="module")
+def build_c(tmp_path_factory):
+    """build_c(text or path) -> the compiled C model (a CModule) of a .dep model (cached)."""
+    from pathlib import Path
+
+    from depsim.codegen import compile_c
+    from depsim.runtime.binding import load_folder
+
+    folder = tmp_path_factory.mktemp("c_models")
+    cache = {}
+
+    def get(model):
+        key = str(model)
+        if key not in cache:
+            source = Path(model) if isinstance(model, Path) else folder / f"model{len(cache)}.dep"
+            if not isinstance(model, Path):
+                source.write_text(model)
+            cache[key] = load_folder(compile_c(load_model(source), folder / f"c{len(cache)}"))
+        return cache[key]
+
+    return get

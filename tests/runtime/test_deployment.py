@@ -134,6 +134,16 @@ def test_summary_report_and_switch(build):
     assert "NOT DEPLOYED" not in report and free.deployment.deployed is None
 
 
+def test_the_summary_counts_one_latch_in_the_singular(build):
+    """One latch: "1 latch latched", "1 of 1 latch open"; several keep "all 13 latches"
+    (tests/examples/test_accordion.py)."""
+    module = build(TWO_BARS)
+    lines = simulate(module).report().splitlines()
+    assert lines[1].startswith("  DEPLOYED: 1 latch latched; full deployment at t = ")
+    early = simulate(module, t_end=0.05).report().splitlines()
+    assert early[1] == "  NOT DEPLOYED by t = 0.05 s: 1 of 1 latch open (h2)"
+
+
 def test_geometry_reconstructs_bar_ends_and_hinges(build):
     module = build(TWO_BARS)
     p = np.array(module.PARAMETER_DEFAULTS)

@@ -40,7 +40,7 @@ def drifting_pin(pendulum, start=0.1, rate=1e-2):
                    HINGE_JACOBIAN_ROWS=(0, 1), HINGE_JACOBIAN_COLS=(2, 2),
                    hinge_jacobian=lambda q, p: np.repeat(pendulum.hinge_jacobian(q, p), 2),
                    hinge_gamma=lambda q, qd, p: np.zeros(2),
-                   hinge_properties=lambda p: np.full((2, 8), np.nan))
+                   hinge_properties=lambda p: np.full((2, len(pendulum.HINGE_PROPERTIES)), np.nan))
 
 
 def test_a_dead_point_is_passed_on_its_branch(slider_crank):

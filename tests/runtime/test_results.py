@@ -105,7 +105,8 @@ def test_output_grid_includes_t_end(pendulum):
 def test_result_columns_are_consistent(result, pendulum):
     p = result.parameters
     q, qd = result.q[3], result.qd[3]
-    assert np.allclose(result.outputs[3], pendulum.outputs(q, qd, result.times[3], p))
+    assert np.allclose(result.outputs[3], pendulum.outputs(q, qd, result.times[3], p, result.lam[3],
+                                                             np.zeros(len(pendulum.RUN_VALUES))))
     assert np.allclose(result.hinge_angles[3], pendulum.hinge_angles(q, p))
     with pytest.raises(KeyError, match="no output 'nope'"):
         result.output("nope")

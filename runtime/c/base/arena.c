@@ -8,11 +8,16 @@ static void *allocate(dep_arena *arena, size_t n, int zeroed)
     if (arena->count == arena->capacity) {
         int capacity = arena->capacity ? 2 * arena->capacity : 64;
         void **blocks = realloc(arena->blocks, (size_t)capacity * sizeof *blocks);
-        if (blocks == NULL) {
+        if (blocks != NULL) {
+            arena->blocks = blocks;
+        }
+        size_t *sizes = blocks != NULL ? realloc(arena->sizes, (size_t)capacity * sizeof *sizes)
+                                       : NULL;
+        if (sizes == NULL) {
             arena->failed = 1;
             return NULL;
         }
-        arena->blocks = blocks;
+        arena->sizes = sizes;
         arena->capacity = capacity;
     }
     void *block = zeroed ? calloc(n ? n : 1, 1) : malloc(n ? n : 1);
@@ -20,6 +25,7 @@ static void *allocate(dep_arena *arena, size_t n, int zeroed)
         arena->failed = 1;
         return NULL;
     }
+    arena->sizes[arena->count] = n ? n : 1;
     arena->blocks[arena->count++] = block;
     return block;
 }
@@ -39,12 +45,20 @@ double *dep_doubles(dep_arena *arena, size_t n)
     return dep_bytes(arena, n * sizeof(double));
 }
 
+/* Free the blocks from `count` on: the arena as it was when it had `count` blocks. */
+void dep_arena_truncate(dep_arena *arena, int count)
+{
+    while (arena->count > count) {
+        free(arena->blocks[--arena->count]);
+    }
+}
+
 void dep_arena_free(dep_arena *arena)
 {
-    for (int i = 0; i < arena->count; ++i) {
-        free(arena->blocks[i]);
-    }
+    dep_arena_truncate(arena, 0);
     free(arena->blocks);
+    free(arena->sizes);
     arena->blocks = NULL;
+    arena->sizes = NULL;
     arena->count = arena->capacity = 0;
 }

@@ -4,7 +4,7 @@
  * (depsim.h) and nothing of the method.
  *
  *   arena.c    memory
- *   errors.c   error records and their text, repr(float)
+ *   errors.c   error records and their text, repr(float) (dep_repr, public)
  *   decimal.c  dep_format_double (public): "%.17g" without the C library's big numbers
  *   records.c  the (key, member) -> value entries of an event record
  */
@@ -21,6 +21,7 @@
 
 typedef struct dep_arena {
     void **blocks;
+    size_t *sizes; /* each block's bytes (a run's state saved: run/snapshot.c) */
     int count, capacity;
     int failed;
 } dep_arena;
@@ -30,6 +31,7 @@ void *dep_bytes(dep_arena *arena, size_t n); /* zeroed */
 /* not zeroed: for a large block whose parts are set before they are read (calloc clears
    memory that a long-lived process, a study's worker, has used before: megabytes a run) */
 void *dep_bytes_unset(dep_arena *arena, size_t n);
+void dep_arena_truncate(dep_arena *arena, int count); /* the blocks from `count` on freed */
 void dep_arena_free(dep_arena *arena);
 
 /* ---- errors.c ---------------------------------------------------------------------------- */
@@ -42,7 +44,6 @@ int dep_solver_error(dep_error *error, int has_t, double t, const char *stage, c
                      const char *joint, int has_residual, double residual, const char *what,
                      const char *hint);
 int dep_plain_error(dep_error *error, int code, const char *message);
-void dep_repr(double value, char *out, size_t size); /* Python's repr(float) */
 
 /* ---- records.c: event record data --------------------------------------------------------- */
 

@@ -19,6 +19,8 @@
 #ifndef DEPSIM_H
 #define DEPSIM_H
 
+#include <stddef.h>
+
 #include "depsim_model.h"
 
 #define DEP_NAME_MAX 128   /* longest name (row, joint, event, data key) kept, with the NUL */
@@ -206,7 +208,7 @@ typedef struct dep_datum {
 enum dep_record_kind {
     DEP_RECORD_EVENT = 0, DEP_RECORD_LATCH = 1, DEP_RECORD_LATCH_CONTACT = 2,
     DEP_RECORD_LATCH_SEPARATION = 3, DEP_RECORD_STOP = 4, DEP_RECORD_STICK = 5,
-    DEP_RECORD_SLIP = 6, DEP_RECORD_ASSEMBLY = 7
+    DEP_RECORD_SLIP = 6, DEP_RECORD_ASSEMBLY = 7, DEP_RECORD_HOLD = 8, DEP_RECORD_RELEASE = 9
 };
 
 typedef struct dep_event_record {
@@ -324,12 +326,52 @@ void dep_outputs(dep_run *run, double *outputs);          /* nout, at the curren
 void dep_hinge_states(dep_run *run, dep_hinge_state *out); /* nh */
 void dep_close(dep_run *run);                            /* NULL is fine */
 
+/* ---- a run's state saved and put back (a co-simulation step rolled back, docs/fmu.md) ---- */
+
+typedef struct dep_snapshot dep_snapshot; /* opaque */
+
+/* The whole state of `run`: its time and state, the integrator's histories and caches, the
+   mechanism's modes and rows, the inputs. DEP_OK with *out, or DEP_MEMORY_ERROR. */
+int dep_save(const dep_run *run, dep_snapshot **out, dep_error *error);
+
+/* *run back in the state of `snapshot`, after which it goes on bit for bit as it went on from
+   the save. Into the run it was taken of (still open): its memory copied back. Into another
+   run, NULL or one closed since (or from bytes read in another process): a run of
+   dep_open is opened again with the snapshot's parameters and settings (not its progress
+   callback) and its dep_advance and dep_set_inputs calls are made again, the same steps to
+   the same state at the cost of the run so far; *run is then that run, the old one closed.
+   On failure *run is left as it was and `error` says why. */
+int dep_restore(dep_run **run, const dep_snapshot *snapshot, dep_error *error);
+void dep_snapshot_free(dep_snapshot *snapshot); /* NULL is fine */
+
+/* A snapshot as bytes (dep_snapshot_size of them, written by dep_snapshot_write) and back:
+   dep_snapshot_read refuses (DEP_SETTINGS_ERROR) bytes that are not a snapshot of this
+   model's run made by this depsim on this kind of machine, or damaged (a checksum). */
+size_t dep_snapshot_size(const dep_snapshot *snapshot);
+void dep_snapshot_write(const dep_snapshot *snapshot, unsigned char *bytes);
+int dep_snapshot_read(const dep_model *model, const unsigned char *bytes, size_t size,
+                      dep_snapshot **out, dep_error *error);
+
 /* The index of parameter `name`, or -1. */
 int dep_parameter_index(const dep_model *model, const char *name);
+
+/* The model text's range checks (a length > 0, a friction >= 0, stop_min < stop_max, ...: the
+   model's limit_* tables) for the parameters p (np values): DEP_OK, else DEP_SETTINGS_ERROR
+   with every check p breaks in `error`, worded as depsim.dsl.check_parameters words them and
+   joined by "; ", e.g. "rod.length must be positive, got -2 m (from L = -1 m)". only: NULL
+   to apply every check; else np flags, and only the checks whose parameters are all flagged
+   are applied. dep_simulate and dep_open apply every check before anything runs. */
+int dep_check_parameters(const dep_model *model, const double *p, const unsigned char *only,
+                         dep_error *error);
 
 /* x as printf's "%.17g" writes it (the same characters: enough digits to read x back exactly),
    into out (DEP_FORMAT_SIZE chars); returns its length. decimal.c: several times faster. */
 #define DEP_FORMAT_SIZE 32
 int dep_format_double(double x, char *out);
+
+/* x as Python's repr(float) writes it: the shortest digits that read back exactly, placed as
+   Python places them ("0.05", "1e-09", "100.0", "inf", "nan"), into out (size bytes;
+   DEP_FORMAT_SIZE is enough). base/errors.c. */
+void dep_repr(double value, char *out, size_t size);
 
 #endif /* DEPSIM_H */

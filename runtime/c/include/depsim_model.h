@@ -1,5 +1,5 @@
 /* depsim_model.h: what the integrator needs from a model. GENERATED from
- * depsim/runtime/interface.py and depsim/dsl/attributes.py
+ * depsim/runtime/interface.py, depsim/dsl/attributes.py and depsim/dsl/limits.py
  * (python -m depsim.codegen.interface_header); do not edit.
  *
  * A generated model.c defines one `const dep_model depsim_model` filled with its
@@ -12,7 +12,7 @@
 #ifndef DEPSIM_MODEL_H
 #define DEPSIM_MODEL_H
 
-#define DEP_MODEL_ABI 11 /* bumped whenever this struct changes */
+#define DEP_MODEL_ABI 12 /* bumped whenever this struct changes */
 
 /* The columns of hinge_properties (HINGE_PROPERTIES): the hinge attributes the
    integrator applies itself (docs/language.md, hinge), SI; nan where not given. */
@@ -25,7 +25,8 @@ enum dep_hinge_property {
     DEP_HINGE_FRICTION = 5, /* N*m */
     DEP_HINGE_STATIC_FRICTION = 6, /* N*m */
     DEP_HINGE_SLIP_RATE = 7, /* rad/s */
-    DEP_HINGE_PROPERTIES = 8 /* their count: every model's nhp */
+    DEP_HINGE_RELEASE = 8, /* s */
+    DEP_HINGE_PROPERTIES = 9 /* their count: every model's nhp */
 };
 /* Their names, in column order (an initializer of const char *[]). */
 #define DEP_HINGE_PROPERTY_NAMES \
@@ -36,7 +37,18 @@ enum dep_hinge_property {
      "stop_max", \
      "friction", \
      "static_friction", \
-     "slip_rate"}
+     "slip_rate", \
+     "release"}
+
+/* What a range check of the parameters asks of its value (limit_kinds; the
+   model text's checks, depsim.dsl.limits). */
+enum dep_limit_kind {
+    DEP_LIMIT_POSITIVE = 0,
+    DEP_LIMIT_NONNEGATIVE = 1,
+    DEP_LIMIT_NONZERO = 2,
+    DEP_LIMIT_BELOW = 3,
+    DEP_LIMIT_AT_LEAST = 4
+};
 
 typedef struct dep_model {
     int abi; /* DEP_MODEL_ABI of the header the model was compiled with */
@@ -65,6 +77,10 @@ typedef struct dep_model {
     int nkz; /* structural non-zeros of the stiffness (0: no beams) */
     int nmz; /* structural non-zeros of the mass matrix */
     int nfix; /* structural parameters (loop bounds, indices): fixed */
+    int nw; /* run values outputs may use: nh + nd + 4 */
+    int nsys; /* the system's quantities of system_state */
+    int nlim; /* range checks of the parameters (the model text's) */
+    int nlimp; /* (range check, parameter) pairs it depends on */
 
     /* tables (NULL when empty) */
     const char *const *coordinate_names; /* nq */
@@ -97,6 +113,13 @@ typedef struct dep_model {
     const int *mass_cols; /* nmz */
     const char *const *fixed_names; /* nfix, structural parameters: fixed in the model text, not in p */
     const int *fixed_values; /* nfix, their values */
+    const char *const *run_value_names; /* nw, "<h>.torque" per hinge, "work.<dissipator>" per dissipator, then "work.friction", "work.latch", "work.impacts", "energy.latch" */
+    const char *const *system_state_names; /* nsys, columns of system_state(): mass, com_x, com_y, momentum_x, momentum_y, angular_momentum (about the centre of mass) */
+    const char *const *limit_names; /* nlim, what each range check tests, e.g. "rod.length", in the model text's order */
+    const int *limit_kinds; /* nlim, enum dep_limit_kind: value > 0, >= 0, != 0, < bound, >= bound */
+    const char *const *limit_messages; /* nlim, the check broken in words, a printf format of the value and the bound (%g each, in that order; %% a percent sign) */
+    const int *limit_parameter_rows; /* nlimp, row-major sorted: range check i depends on parameter j */
+    const int *limit_parameter_cols; /* nlimp */
 
     /* the model's simulation settings */
     double t_end, tol, dt_out;
@@ -134,8 +157,10 @@ typedef struct dep_model {
     void (*hinge_gamma)(const double *q, const double *qd, const double *p, double *gamma_h);
     /* HINGE_PROPERTIES of each hinge (SI; nan: not given), shape (NH, NHP). */
     void (*hinge_properties)(const double *p, double *H);
-    /* The named outputs, shape (NOUT,). */
-    void (*outputs)(const double *q, const double *qd, double t, const double *p, double *y);
+    /* The named outputs, shape (NOUT,), from the state, the model rows' multipliers lam (NC,) and the run values w (NW,). */
+    void (*outputs)(const double *q, const double *qd, double t, const double *p, const double *lam, const double *w, double *y);
+    /* The whole system's mass (kg), centre of mass (m), momentum (N*s) and angular momentum about its centre of mass (N*m*s), in the order of SYSTEM_STATE. */
+    void (*system_state)(const double *q, const double *qd, const double *p, double *s);
     /* Kinetic energy and each potential (J), in the order of ENERGIES. */
     void (*energy)(const double *q, const double *qd, double t, const double *p, double *E);
     /* Power removed by each element of DISSIPATORS (W). */
@@ -144,6 +169,8 @@ typedef struct dep_model {
     void (*coordinate_scales)(const double *p, double *s);
     /* The stiff forces' Jacobian of a model with beams, K ~ -df/dq and D ~ -df/dqd, at (STIFFNESS_ROWS, STIFFNESS_COLS). */
     void (*stiffness)(const double *q, const double *p, double *K, double *D);
+    /* Each range check's value and its bound (kinds below and at_least; else 0). */
+    void (*parameter_checks)(const double *p, double *value, double *bound);
 } dep_model;
 
 #endif /* DEPSIM_MODEL_H */

@@ -14,8 +14,10 @@
 
 #include "../method/method.h"
 
-/* The kinds of a hinge's events. */
-enum dep_kind { DEP_KIND_LATCH, DEP_KIND_STOP_MIN, DEP_KIND_STOP_MAX, DEP_KIND_STICK };
+/* The kinds of a hinge's events: its latch, its stops, stick-slip, and its hold-down's
+   release (held from t = 0: engaged when the run starts, released at `release`). */
+enum dep_kind { DEP_KIND_LATCH, DEP_KIND_STOP_MIN, DEP_KIND_STOP_MAX, DEP_KIND_STICK,
+                DEP_KIND_HOLD, DEP_KINDS };
 
 /* ---- modes.c, mechanism.c: latches, hard stops, stick-slip ------------------------------- */
 
@@ -43,7 +45,7 @@ typedef struct dep_mechanism {
    mechanics). */
 int dep_mechanism_create(dep_mechanism **out, const dep_system *system, double tol,
                          dep_arena *arena);
-/* modes.c: the kinds of h's events (enum dep_kind) into out (4); their count. */
+/* modes.c: the kinds of h's events (enum dep_kind) into out (DEP_KINDS); their count. */
 int dep_hinge_event_kinds(const dep_hinge_mechanics *h, int *out);
 /* The mechanism's events (m->info, m->events: one per hinge and kind). */
 void dep_mechanism_make_events(dep_mechanism *m);
@@ -137,6 +139,8 @@ typedef struct dep_settle {
 /* Lock rows by their lock (enum dep_lock) and hinge. */
 void dep_settle_remove_row(settle_context *x, const dep_hinge_mechanics *h, int lock);
 void dep_settle_add_lock(settle_context *x, const dep_hinge_mechanics *h, double angle, int lock);
+/* A hold-down's lock row "<h>.hold" at `angle` (an event lock, enum dep_lock). */
+void dep_settle_add_hold(settle_context *x, const dep_hinge_mechanics *h, double angle);
 dep_constraints *dep_settle_constraints(settle_context *x, const int *skip_stick);
 dep_event_record *dep_settle_record(settle_context *x, const dep_hinge_mechanics *h,
                                     int kind);

@@ -9,6 +9,7 @@
  * When rows were added, q and qd are finally projected onto every constraint. The records
  * carry the kinetic energy each impact removed (`impact_energy_loss`).
  */
+#include <math.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -83,7 +84,7 @@ int dep_mechanism_create(dep_mechanism **out, const dep_system *system, double t
                          dep_arena *arena)
 {
     const dep_model *model = system->model;
-    int nh = system->nh, list[4], n_events = 0, n_latches = 0;
+    int nh = system->nh, list[DEP_KINDS], n_events = 0, n_latches = 0;
     *out = NULL;
     for (int i = 0; i < nh; ++i) {
         n_events += dep_hinge_event_kinds(&system->hinges[i], list);
@@ -138,8 +139,13 @@ void dep_change_clear(dep_change *change)
 
 /* ---- settle ------------------------------------------------------------------------------- */
 
+/* A hold-down whose release time is within this much (relative, s) of the instant is
+   released now: hinges held until one time are released together, wherever the located
+   event time fell within its tolerance. */
+#define RELEASE_SLACK 1e-9
+
 /* Events whose g is already negative at the context's state (except those whose mode has
-   just started on its boundary). */
+   just started on its boundary), and hold-downs due for release. */
 static int violated(settle_context *x, int *pending, int *n_pending, dep_error *error)
 {
     dep_mechanism *m = x->m;
@@ -161,7 +167,8 @@ static int violated(settle_context *x, int *pending, int *n_pending, dep_error *
         if (status != DEP_OK) {
             return status;
         }
-        if (g < 0) {
+        if (g < 0 || (m->info[e].kind == DEP_KIND_HOLD
+                      && g <= RELEASE_SLACK * fmax(1.0, fabs(x->t)))) {
             pending[(*n_pending)++] = e;
         }
     }

@@ -11,7 +11,8 @@
 
 #include "mechanics.h"
 
-static const char *const KIND_NAMES[4] = {"latch", "stop_min", "stop_max", "stick"};
+static const char *const KIND_NAMES[DEP_KINDS] = {"latch", "stop_min", "stop_max", "stick",
+                                                  "release"};
 
 const char *dep_kind_name(int kind)
 {
@@ -22,8 +23,9 @@ const char *dep_kind_name(int kind)
 
 int dep_hinge_event_kinds(const dep_hinge_mechanics *h, int *out)
 {
-    int present[4] = {h->has_latch, h->has_stop_min, h->has_stop_max, h->has_static}, n = 0;
-    for (int k = 0; k < 4; ++k) {
+    int present[DEP_KINDS] = {h->has_latch, h->has_stop_min, h->has_stop_max, h->has_static,
+                              h->has_hold}, n = 0;
+    for (int k = 0; k < DEP_KINDS; ++k) {
         if (present[k]) {
             out[n++] = k;
         }
@@ -37,10 +39,12 @@ static int stop_g(void *, double, const double *, const double *, const dep_acti
                   double *);
 static int stick_g(void *, double, const double *, const double *, const dep_active_rows *,
                    double *);
+static int hold_g(void *, double, const double *, const double *, const dep_active_rows *,
+                  double *);
 
 void dep_mechanism_make_events(dep_mechanism *m)
 {
-    int n = 0, list[4];
+    int n = 0, list[DEP_KINDS];
     for (int i = 0; i < m->n_hinges; ++i) {
         int count = dep_hinge_event_kinds(&m->hinges[i], list);
         for (int k = 0; k < count; ++k, ++n) {
@@ -53,11 +57,12 @@ void dep_mechanism_make_events(dep_mechanism *m)
             dep_event *e = &m->events[n];
             e->name = info->name;
             e->function = list[k] == DEP_KIND_LATCH ? latch_g
-                          : list[k] == DEP_KIND_STICK ? stick_g : stop_g;
+                          : list[k] == DEP_KIND_STICK ? stick_g
+                          : list[k] == DEP_KIND_HOLD ? hold_g : stop_g;
             e->direction = -1;
             e->context = info;
             e->max_hits = -1;
-            e->multipliers = list[k] != DEP_KIND_LATCH;
+            e->multipliers = list[k] != DEP_KIND_LATCH && list[k] != DEP_KIND_HOLD;
         }
     }
 }
@@ -108,7 +113,7 @@ static int latch_g(void *context, double t, const double *q, const double *qd,
     dep_mechanism_event *info = context;
     dep_hinge_mechanics *h = info->hinge;
     (void)t, (void)qd, (void)rows;
-    if (h->latch_state == DEP_LATCHED || h->stuck) {
+    if (h->latch_state == DEP_LATCHED || h->stuck || h->held) {
         *g = 1.0;
         return 0;
     }
@@ -127,7 +132,7 @@ static int stop_g(void *context, double t, const double *q, const double *qd,
     int at_max = info->kind == DEP_KIND_STOP_MAX;
     double sign = at_max ? 1.0 : -1.0, lam;
     (void)t, (void)qd;
-    if (h->latch_state == DEP_LATCHED || h->stuck) {
+    if (h->latch_state == DEP_LATCHED || h->stuck || h->held) {
         *g = 1.0;
         return 0;
     }
@@ -166,16 +171,30 @@ static int stick_g(void *context, double t, const double *q, const double *qd,
     return 0;
 }
 
+/* held: release - t (falls through zero at the release time); released: 1. */
+static int hold_g(void *context, double t, const double *q, const double *qd,
+                  const dep_active_rows *rows, double *g)
+{
+    dep_mechanism_event *info = context;
+    (void)q, (void)qd, (void)rows;
+    *g = info->hinge->held ? info->hinge->release - t : 1.0;
+    return 0;
+}
+
 /* Mechanism.start: latch sides and slip directions from the initial state; due[] gets the
-   events due at once (a hinge starting at its latch or at or beyond a stop, a stick-slip
-   hinge at rest), per hinge in the order latch, stop_max, stop_min, stick. */
+   events due at once (a hold-down engaging, a hinge starting at its latch or at or beyond a
+   stop, a stick-slip hinge at rest), per hinge in the order hold, latch, stop_max, stop_min,
+   stick. */
 int dep_mechanism_start(dep_mechanism *m, const double *q, const double *qd, int *due)
 {
     int n_due = 0;
     for (int i = 0; i < m->n_hinges; ++i) {
         dep_hinge_mechanics *h = &m->hinges[i];
         double theta = dep_mechanism_angle(m, h, q), rate = dep_mechanism_rate(m, h, q, qd);
-        int kinds_due[4], n = 0;
+        int kinds_due[DEP_KINDS], n = 0;
+        if (h->has_hold) {
+            kinds_due[n++] = DEP_KIND_HOLD;
+        }
         if (h->has_latch) {
             h->latch_side = theta != h->latch ? (theta < h->latch ? 1.0 : -1.0)
                                               : (rate < 0 ? -1.0 : 1.0);
@@ -191,7 +210,7 @@ int dep_mechanism_start(dep_mechanism *m, const double *q, const double *qd, int
         }
         if (h->has_static) {
             h->direction = rate == 0.0 ? 1.0 : rate > 0 ? 1.0 : -1.0;
-            if (rate == 0.0) {
+            if (rate == 0.0 && !h->has_hold) {
                 kinds_due[n++] = DEP_KIND_STICK;
             }
         }

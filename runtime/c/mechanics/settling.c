@@ -48,6 +48,13 @@ void dep_settle_add_lock(settle_context *x, const dep_hinge_mechanics *h, double
     x->added = 1;
 }
 
+void dep_settle_add_hold(settle_context *x, const dep_hinge_mechanics *h, double angle)
+{
+    dep_settle_add_lock(x, h, angle, DEP_LOCK_EVENT);
+    int i = row_index(x, h, DEP_LOCK_EVENT);
+    snprintf(x->rows[i].name, sizeof x->rows[i].name, "%.*s.hold", DEP_NAME_MAX - 8, h->name);
+}
+
 /* The context's rows as a constraint set, without the stick rows of the hinges flagged in
    skip_stick (nh flags, or NULL). */
 dep_constraints *dep_settle_constraints(settle_context *x, const int *skip_stick)
@@ -67,8 +74,9 @@ dep_constraints *dep_settle_constraints(settle_context *x, const int *skip_stick
 /* A record of hinge h's transition `kind` (enum dep_record_kind), named "<h>.<transition>". */
 dep_event_record *dep_settle_record(settle_context *x, const dep_hinge_mechanics *h, int kind)
 {
-    static const char *const TRANSITIONS[DEP_RECORD_SLIP + 1] = {
-        "", "latch", "latch.contact", "latch.separation", "stop", "stick", "slip"};
+    static const char *const TRANSITIONS[DEP_RECORD_RELEASE + 1] = {
+        "", "latch", "latch.contact", "latch.separation", "stop", "stick", "slip", "",
+        "hold", "release"};
     dep_event_record *r = &x->records[x->n_records < x->records_capacity ? x->n_records++
                                                                           : x->n_records - 1];
     snprintf(r->name, sizeof r->name, "%.*s.%s", DEP_NAME_MAX - 32, h->name, TRANSITIONS[kind]);

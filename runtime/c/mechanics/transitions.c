@@ -146,6 +146,40 @@ static int stick(settle_context *x, dep_hinge_mechanics *h, int kind, int *follo
     return DEP_OK;
 }
 
+/* A hold-down: engaged at the start (lock row "<h>.hold" at the current angle, an impact if
+   the hinge moves); at its release time the row goes, and a stick-slip hinge is tested for
+   stick (it is at rest). */
+static int hold(settle_context *x, dep_hinge_mechanics *h, int kind, int *follow, int *n_follow)
+{
+    (void)kind;
+    if (!h->held) {
+        double theta = dep_mechanism_angle(x->m, h, x->q);
+        h->held = 1;
+        dep_settle_add_hold(x, h, theta);
+        dep_event_record *r = dep_settle_record(x, h, DEP_RECORD_HOLD);
+        dep_settle_put_number(x, r, "angle", theta);
+        dep_settle_put_number(x, r, "release", h->release);
+        if (dep_mechanism_rate(x->m, h, x->q, x->qd) != 0.0) {
+            impacting(x, h, DEP_LOCK_EVENT, r);
+        }
+        return DEP_OK;
+    }
+    double lam;
+    int status = dep_settle_multiplier_of(x, h, DEP_LOCK_EVENT, &lam);
+    if (status != DEP_OK) {
+        return status;
+    }
+    dep_settle_remove_row(x, h, DEP_LOCK_EVENT);
+    h->held = 0;
+    dep_event_record *r = dep_settle_record(x, h, DEP_RECORD_RELEASE);
+    dep_settle_put_number(x, r, "angle", dep_mechanism_angle(x->m, h, x->q));
+    dep_settle_put_number(x, r, "torque", -lam); /* what the hold-down held just before */
+    if (h->has_static && h->latch_state != DEP_LATCHED && h->stop == DEP_STOP_NONE) {
+        follow[(*n_follow)++] = DEP_KIND_STICK;
+    }
+    return DEP_OK;
+}
+
 /* ---- the impact and the final projection -------------------------------------------------- */
 
 static int is_stuck(const dep_hinge_mechanics *h)
@@ -195,14 +229,15 @@ static void release_stops(settle_context *x, int n_released)
    again from its new rate: the hinges that stuck before it (x->stuck, their rows released for
    the impact) and the slipping ones alike. Moving, it slips in the direction of its rate (a
    "slip" record when that is a change); at rest it is due for the stick-or-slip test
-   (follow[]: hinge * 4 + kind). */
+   (follow[]: hinge * DEP_KINDS + kind). */
 static void reclassify(settle_context *x, int *follow, int *n_follow)
 {
     dep_mechanism *m = x->m;
     double at_rest = REST * m->tol * fmax(1.0, dep_max_abs(x->qd, x->nq));
     for (int i = 0; i < m->n_hinges; ++i) {
         dep_hinge_mechanics *h = &m->hinges[i];
-        if (!h->has_static || h->latch_state == DEP_LATCHED || h->stop != DEP_STOP_NONE) {
+        if (!h->has_static || h->latch_state == DEP_LATCHED || h->stop != DEP_STOP_NONE
+            || h->held) {
             continue;
         }
         int was_stuck = x->stuck[i];
@@ -215,7 +250,7 @@ static void reclassify(settle_context *x, int *follow, int *n_follow)
         }
         double rate = dep_mechanism_rate(m, h, x->q, x->qd);
         if (fabs(rate) <= at_rest) {
-            follow[(*n_follow)++] = i * 4 + DEP_KIND_STICK;
+            follow[(*n_follow)++] = i * DEP_KINDS + DEP_KIND_STICK;
             continue;
         }
         double direction = rate > 0 ? 1.0 : -1.0;
@@ -278,7 +313,7 @@ typedef int (*transition_function)(settle_context *, dep_hinge_mechanics *, int,
 /* Apply event e's transition; append the events it makes due to the queue. */
 int dep_settle_transition(settle_context *x, int e, int *queue, int *n_queue)
 {
-    static const transition_function TRANSITIONS[4] = {latch, stop, stop, stick};
+    static const transition_function TRANSITIONS[DEP_KINDS] = {latch, stop, stop, stick, hold};
     dep_mechanism *m = x->m;
     dep_hinge_mechanics *h = m->info[e].hinge;
     int follow[DEP_MAX_ADDED + 4], n_follow = 0;
@@ -290,7 +325,8 @@ int dep_settle_transition(settle_context *x, int e, int *queue, int *n_queue)
         int more[DEP_MAX_ADDED], n_more = 0;
         status = dep_settle_impact(x, more, &n_more);
         for (int k = 0; k < n_more; ++k) {
-            follow[n_follow++] = dep_mechanism_event_index(m, &m->hinges[more[k] / 4], more[k] % 4);
+            follow[n_follow++] = dep_mechanism_event_index(m, &m->hinges[more[k] / DEP_KINDS],
+                                                           more[k] % DEP_KINDS);
         }
     }
     for (int k = 0; k < n_follow && *n_queue < x->queue_capacity; ++k) {

@@ -107,10 +107,10 @@ static double integral_factor(const dep_step_errors *e, double high)
             derivative += order[k] * term;
         }
         if (sum <= 0.0) { /* at the start: excess(high) <= 0; later: at the root */
-            if (pass == 0) {
+            if (pass == 0 && x == log(high)) {
                 return high;
             }
-            break;
+            break; /* (at a term's own root when the others are nought: no constraint rows) */
         }
         double dx = sum / derivative;
         x -= dx;

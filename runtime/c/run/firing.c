@@ -24,7 +24,7 @@ int dep_run_start(dep_run *run, const double *q0, const double *qd0)
         status = dep_run_restart(run, 0.0, q0, qd0, run->work, "initial state");
     } else {
         dep_state here = run->state;
-        int due[4 * DEP_MAX_ADDED], n_due;
+        int due[DEP_KINDS * DEP_MAX_ADDED], n_due;
         status = dep_check_consistency(&run->cs, 0.0, q0, qd0, run->settings.tol,
                                        "initial state", run->scratch, run->error);
         if (status != DEP_OK) {

@@ -107,7 +107,52 @@ int dep_recorder_init(dep_recorder *rec, const dep_system *system, dep_mechanism
     rec->qdd = dep_doubles(arena, nq);
     rec->J = dep_doubles(arena, DEP_JACOBIAN_SIZE(m));
     rec->v = dep_doubles(arena, (size_t)capacity);
+    rec->w = dep_doubles(arena, DEP_RUN_VALUES(m) + 1);
+    rec->energy_scratch = dep_doubles(arena, (size_t)system->ne + 1);
     return arena->failed ? DEP_MEMORY_ERROR : DEP_OK;
+}
+
+double dep_impact_loss(const dep_event_record *records, int n)
+{
+    double total = 0.0;
+    for (int e = 0; e < n; ++e) {
+        for (int i = 0; i < records[e].n_data; ++i) {
+            const dep_datum *d = &records[e].data[i];
+            if (d->kind == DEP_NUMBER && d->member[0] == '\0'
+                && strcmp(d->key, "impact_energy_loss") == 0) {
+                total += d->number;
+            }
+        }
+    }
+    return total;
+}
+
+void dep_run_values(const dep_system *system, const double *q, const double *torques,
+                    const double *work, double impacts, double *energy, double *w)
+{
+    const dep_model *m = system->model;
+    int nh = m->nh, nd = m->nd, n_friction = system->n_friction;
+    for (int k = 0; k < nh; ++k) { /* (0 while nothing holds the hinge) */
+        w[k] = isnan(torques[k]) ? 0.0 : torques[k];
+    }
+    for (int d = 0; d < nd; ++d) {
+        w[nh + d] = work[d];
+    }
+    double *totals = w + nh + nd;
+    totals[0] = totals[1] = totals[3] = 0.0;
+    for (int d = nd; d < nd + n_friction; ++d) { /* "friction.<h>" */
+        totals[0] += work[d];
+    }
+    for (int d = nd + n_friction; d < system->nd; ++d) { /* "latch.<h>" */
+        totals[1] += work[d];
+    }
+    totals[2] = impacts;
+    if (system->n_compliant > 0) { /* the latches' potential energy, after the model's */
+        dep_hinge_energy(system, q, energy);
+        for (int e = m->ne; e < system->ne; ++e) {
+            totals[3] += energy[e];
+        }
+    }
 }
 
 /* Output times not yet recorded that are <= t_until: returns how many, from times[*first]. */
@@ -192,7 +237,6 @@ int dep_record(dep_recorder *rec, double t, const double *q, const double *qd, c
         return DEP_MEMORY_ERROR;
     }
     rec->t[row] = t;
-    m->outputs(q, qd, t, s->p, rec->outputs + row * (size_t)m->nout);
     memcpy(rec->work + row * (size_t)s->nd, work, (size_t)s->nd * sizeof(double));
     for (int k = 0; k < m->nh; ++k) { /* (the model's rows come first in cs) */
         int ix = rec->force_rows[2 * k], iy = rec->force_rows[2 * k + 1];
@@ -200,12 +244,19 @@ int dep_record(dep_recorder *rec, double t, const double *q, const double *qd, c
         force[0] = ix >= 0 && iy >= 0 ? lam[ix] : NAN;
         force[1] = ix >= 0 && iy >= 0 ? lam[iy] : NAN;
     }
+    double *torques = rec->torque + row * (size_t)m->nh;
     if (rec->mechanism != NULL) {
-        dep_mechanism_hinge_torques(rec->mechanism, q, qd, cs, lam,
-                                    rec->torque + row * (size_t)m->nh);
+        dep_mechanism_hinge_torques(rec->mechanism, q, qd, cs, lam, torques);
     } else {
-        dep_lock_torques(m, cs, lam, rec->torque + row * (size_t)m->nh);
+        dep_lock_torques(m, cs, lam, torques);
     }
+    if (rec->records != NULL && *rec->n_records > rec->impacts_counted) { /* new records */
+        rec->impacts += dep_impact_loss(*rec->records + rec->impacts_counted,
+                                        *rec->n_records - rec->impacts_counted);
+        rec->impacts_counted = *rec->n_records;
+    }
+    dep_run_values(s, q, torques, work, rec->impacts, rec->energy_scratch, rec->w);
+    m->outputs(q, qd, t, s->p, lam, rec->w, rec->outputs + row * (size_t)m->nout);
     rec->rows++;
     rec->lam_start[rec->rows] = rec->lam_count;
     if (rec->outputs_only) {

@@ -79,6 +79,10 @@ static int setup(dep_run *run, const double *params, const dep_event *events, in
     status = run->recording ? dep_recorder_init(&run->recorder, &run->system, mechanism,
                                                 &run->settings, run->cs.capacity, arena)
                             : DEP_OK;
+    run->recorder.records = &run->records; /* the impacts so far, for the run values */
+    run->recorder.n_records = &run->n_records;
+    run->run_values = dep_doubles(arena, DEP_RUN_VALUES(m) + 1);
+    run->run_energy = dep_doubles(arena, (size_t)run->system.ne + 1);
     if (status == DEP_SETTINGS_ERROR) {
         char what[200];
         snprintf(what, sizeof what, "t_end / dt_out = %.6g / %.6g asks for %.4g output times; "
@@ -259,6 +263,25 @@ int dep_run_finish(dep_run *run, dep_result *result)
         return dep_plain_error(run->error, DEP_MEMORY_ERROR, "out of memory");
     }
     return DEP_OK;
+}
+
+void dep_run_outputs(dep_run *run, double *outputs)
+{
+    const dep_model *m = run->model;
+    const dep_state *s = &run->state;
+    if (m->nout == 0) {
+        return;
+    }
+    double *torques = run->loads.torques;
+    if (run->mechanism != NULL) {
+        dep_mechanism_hinge_torques(run->mechanism, s->q, s->qd, &run->cs, s->lam, torques);
+    } else {
+        dep_lock_torques(m, &run->cs, s->lam, torques);
+    }
+    dep_run_values(&run->system, s->q, torques, s->work,
+                   dep_impact_loss(run->records, run->n_records), run->run_energy,
+                   run->run_values);
+    m->outputs(s->q, s->qd, s->t, run->p, s->lam, run->run_values, outputs);
 }
 
 void dep_run_free(dep_run *run)

@@ -3,7 +3,7 @@
  * modes (mechanics.h), locates events on the dense output, applies what they change, and
  * records the outputs, the hinge loads, the event records and the deployment summary.
  *
- *   settings.c   the checks of a run's settings and input tables
+ *   settings.c   the checks of a run's settings, input tables and parameters' ranges
  *   tally.c      work and accuracy counters
  *   loads.c      hinge forces and lock torques from the multipliers; their peaks
  *   recording.c  outputs at the requested times; the result
@@ -15,6 +15,7 @@
  *   firing.c     events: located, the step re-taken to them, fired
  *   inputs.c     inputs: time tables piece by piece, values set from outside
  *   run.c        a run set up, begun, advanced, finished and freed
+ *   snapshot.c   a run's state saved and restored (its memory, or its calls replayed)
  */
 #ifndef DEPSIM_RUN_H
 #define DEPSIM_RUN_H
@@ -27,6 +28,9 @@
    round-off. open: dep_open's settings (t_end may be INFINITY; dt_out and tables unused). */
 int dep_check_settings(const dep_model *model, const double *p, const dep_settings *settings,
                        int open, dep_error *error);
+/* The model text's range checks of p (dep_check_parameters, depsim.h). */
+int dep_check_limits(const dep_model *model, const double *p, const unsigned char *only,
+                     dep_error *error);
 
 /* ---- loads.c: hinge forces and lock torques from the multipliers; their peaks -------------- */
 
@@ -60,6 +64,11 @@ typedef struct dep_recorder {
     double *lam_values;
     int lam_count, lam_capacity;
     double *f, *J, *qdd, *v;   /* scratch */
+    double *w, *energy_scratch; /* nw: the run values outputs use; ne scratch */
+    dep_event_record *const *records; /* the run's records (impact losses), NULL: none */
+    const int *n_records;
+    int impacts_counted;       /* records whose impact loss is in `impacts` */
+    double impacts;            /* kinetic energy the impacts so far removed, J */
     dep_arena *arena;
 } dep_recorder;
 
@@ -69,6 +78,17 @@ int dep_recorder_init(dep_recorder *rec, const dep_system *system, dep_mechanism
 int dep_recorder_pending(dep_recorder *rec, double t_until, int *first);
 int dep_record(dep_recorder *rec, double t, const double *q, const double *qd, const double *lam,
                const double *work, dep_constraints *cs);
+/* The run values' layout (model->nw of them in a generated model): nh lock torques, nd
+   works, then friction, latches, impacts and the latches' energy. */
+#define DEP_RUN_VALUES(m) ((size_t)(m)->nh + (size_t)(m)->nd + 4)
+/* The energy impacts removed, summed over records[0..n) (`impact_energy_loss`), J. */
+double dep_impact_loss(const dep_event_record *records, int n);
+/* The run values w (model->nw, depsim_model.h run_value_names) at a state: each hinge's lock
+   torque (torques: nh, NAN while free; 0 in w), the work of the model's dissipators, then of friction, of the
+   compliant latches and of impacts (`impacts`, J), and the compliant latches' potential
+   energy (energy: ne scratch). */
+void dep_run_values(const dep_system *system, const double *q, const double *torques,
+                    const double *work, double impacts, double *energy, double *w);
 double dep_recorder_last_time(const dep_recorder *rec);
 int dep_recorder_result(dep_recorder *rec, dep_result *result);
 
@@ -110,6 +130,20 @@ typedef struct dep_prior {
     double *qd, *qdd;
 } dep_prior;
 
+/* The calls that brought an open run (dep_open) where it is: its parameters and settings at
+   the start, then each dep_advance (DEP_REPLAY_ADVANCE, t) and dep_set_inputs
+   (DEP_REPLAY_INPUTS, ni values, ni rates) that succeeded, as doubles. Repeated on a run
+   opened again, they give the same steps: the same state bit for bit (snapshot.c). */
+enum { DEP_REPLAY_ADVANCE = 1, DEP_REPLAY_INPUTS = 2 };
+
+typedef struct dep_replay {
+    int open;           /* 1: a dep_open run (the calls are kept) */
+    dep_settings settings;
+    double *p;          /* np */
+    double *entries;
+    long n, capacity;
+} dep_replay;
+
 struct dep_run { /* typedef in depsim.h */
     const dep_model *model;
     dep_settings settings;
@@ -149,10 +183,12 @@ struct dep_run { /* typedef in depsim.h */
     dep_active_rows state_rows, dense_rows;
     dep_event_record *records;
     int n_records, records_capacity;
+    double *run_values, *run_energy; /* nw, ne: dep_run_outputs' scratch */
     double t_stop;   /* the end of the current dep_advance: no step passes it */
     double h_next;   /* the step size to try next; 0: none yet (first_step) */
     int recording;   /* 1: outputs at the output times (dep_simulate); 0: dep_open's runs */
     int stopped;     /* a terminal event ended the run */
+    dep_replay replay;
 };
 
 
@@ -167,6 +203,8 @@ int dep_run_begin(dep_run *run);     /* the assembled initial state at t = 0, it
 int dep_run_until(dep_run *run, double t);           /* steps to t (or a stopping event) */
 int dep_run_integrate(dep_run *run); /* dep_simulate's run: to t_end, piece by piece of tables */
 int dep_run_finish(dep_run *run, dep_result *result); /* the result of a finished run */
+/* The model's outputs (nout) at the run's current state (dep_outputs). */
+void dep_run_outputs(dep_run *run, double *outputs);
 
 /* state.c */
 int dep_run_pass_error(dep_run *run, const dep_failure *failure, double t);
@@ -196,5 +234,31 @@ double dep_run_next_break(const dep_run *run, double t); /* where a table's piec
 int dep_run_apply_tables(dep_run *run);               /* the tables' pieces from now on */
 int dep_run_set_inputs(dep_run *run, const double *values, const double *rates,
                        dep_error *error);
+/* snapshot.c: a run's state saved and put back (dep_save, dep_restore, depsim.h) */
+struct dep_snapshot { /* typedef in depsim.h */
+    const dep_model *model;
+    /* the memory of the run: valid in the run it was taken of, while it is open */
+    const dep_run *run;        /* that run */
+    const void *core;          /* where this core's data lies: the same process and core */
+    struct dep_run image;      /* the run's struct */
+    int n_blocks;              /* its arena's blocks (-1: no memory, a snapshot read back
+                                  whose struct is not this core's) */
+    void **addresses;          /* n_blocks */
+    size_t *sizes;             /* n_blocks */
+    unsigned char *bytes;      /* their contents, one after the other */
+    size_t n_bytes;
+    /* the calls since dep_open, repeated on a run opened again */
+    dep_replay replay;
+};
+int dep_run_replay_open(dep_run *run); /* a dep_open run: keep its calls from now on */
+/* One call kept: `kind`, n values a and, for DEP_REPLAY_INPUTS, n values b (NULL: zeros). */
+int dep_run_replay_add(dep_run *run, int kind, const double *a, const double *b, int n);
+int dep_run_save(const dep_run *run, dep_snapshot **out, dep_error *error);
+int dep_run_restore(dep_run **run, const dep_snapshot *snapshot, dep_error *error);
+void dep_snapshot_destroy(dep_snapshot *snapshot);
+size_t dep_snapshot_bytes(const dep_snapshot *snapshot);
+void dep_snapshot_serialize(const dep_snapshot *snapshot, unsigned char *bytes);
+int dep_snapshot_deserialize(const dep_model *model, const unsigned char *bytes, size_t size,
+                             dep_snapshot **out, dep_error *error);
 
 #endif /* DEPSIM_RUN_H */

@@ -169,9 +169,10 @@ static void deployment_lines(const dep_model *m, const dep_result *r, text *out)
     if (d->deployed < 0) {
         return;
     }
+    const char *latches = d->n_latch_hinges == 1 ? "latch" : "latches";
     if (d->deployed) {
-        put(out, "  DEPLOYED: all %d latches latched; full deployment at t = %.6g s\n",
-            d->n_latch_hinges, d->time);
+        put(out, "  DEPLOYED: %s%d %s latched; full deployment at t = %.6g s\n",
+            d->n_latch_hinges == 1 ? "" : "all ", d->n_latch_hinges, latches, d->time);
     } else {
         const char **missing = calloc((size_t)d->n_latch_hinges, sizeof *missing);
         int n_missing = 0;
@@ -188,8 +189,8 @@ static void deployment_lines(const dep_model *m, const dep_result *r, text *out)
                 missing[n_missing++] = m->hinge_names[d->latch_hinges[i]];
             }
         }
-        put(out, "  NOT DEPLOYED by t = %.6g s: %d of %d latches open (", r->t_end, n_missing,
-            d->n_latch_hinges);
+        put(out, "  NOT DEPLOYED by t = %.6g s: %d of %d %s open (", r->t_end, n_missing,
+            d->n_latch_hinges, latches);
         for (int i = 0; i < n_missing; ++i) {
             put(out, "%s%s", i ? ", " : "", missing[i]);
         }
@@ -262,7 +263,8 @@ static void solver_lines(const dep_result *r, text *out)
         }
     }
     if (others > shown) {
-        put(out, "  ... and %d more events (see the JSON summary)\n", others - shown);
+        put(out, "  ... and %d more event%s (see the JSON summary)\n", others - shown,
+            others - shown == 1 ? "" : "s");
     }
 }
 

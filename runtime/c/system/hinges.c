@@ -24,6 +24,9 @@ static void read_hinge(dep_hinge_mechanics *h, const double *v, int mechanics)
     h->has_static = mechanics && !isnan(v[DEP_HINGE_STATIC_FRICTION]);
     h->static_friction = v[DEP_HINGE_STATIC_FRICTION];
     h->slip_rate = v[DEP_HINGE_SLIP_RATE];
+    h->has_hold = mechanics && v[DEP_HINGE_RELEASE] > 0; /* (released at t = 0: never held) */
+    h->release = v[DEP_HINGE_RELEASE];
+    h->held = 0; /* engaged when the run starts */
     h->latch_side = 1.0;
     h->direction = 1.0;
     h->latch_state = DEP_OPEN;
@@ -97,7 +100,7 @@ int dep_hinges_read(dep_system *system, int mechanics, dep_arena *arena, dep_err
 
 int dep_hinge_locked(const dep_hinge_mechanics *h)
 {
-    return h->latch_state == DEP_LATCHED || h->stop != DEP_STOP_NONE;
+    return h->latch_state == DEP_LATCHED || h->stop != DEP_STOP_NONE || h->held;
 }
 
 int dep_hinge_sliding(const dep_hinge_mechanics *h)

@@ -45,13 +45,14 @@ typedef struct dep_hinge_mechanics {
     int index;
     const char *name;
     int has_latch, compliant, has_stop_min, has_stop_max, has_static, has_friction;
-    double latch, latch_stiffness, latch_damping, stop_min, stop_max;
+    int has_hold, held; /* a hold-down until `release`; held now */
+    double latch, latch_stiffness, latch_damping, stop_min, stop_max, release;
     double kinetic, static_friction, slip_rate; /* friction (N m), static (N m), rad/s */
     double latch_side, direction;
     int latch_state, stop, stuck; /* enum dep_latch_state, enum dep_stop_state, 0/1 */
 } dep_hinge_mechanics;
 
-int dep_hinge_locked(const dep_hinge_mechanics *h);   /* by a latch or a stop */
+int dep_hinge_locked(const dep_hinge_mechanics *h);   /* by a latch, a stop or a hold-down */
 int dep_hinge_sliding(const dep_hinge_mechanics *h);  /* stick-slip, slipping */
 /* "hinge", "slider" or "joint": the kind of the joint whose model row `row` is (messages). */
 const char *dep_joint_kind(const dep_model *model, int row);

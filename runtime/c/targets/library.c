@@ -25,6 +25,13 @@ int dep_parameter_index(const dep_model *model, const char *name)
     return -1;
 }
 
+int dep_check_parameters(const dep_model *model, const double *p, const unsigned char *only,
+                         dep_error *error)
+{
+    dep_error_clear(error);
+    return dep_check_limits(model, p, only, error);
+}
+
 int dep_simulate(const dep_model *model, const double *params, const dep_settings *settings,
                  const dep_event *events, int n_events, dep_result *result, dep_error *error)
 {
@@ -53,7 +60,10 @@ int dep_open(const dep_model *model, const double *params, const dep_settings *s
     if (run == NULL) {
         return error->code;
     }
-    int status = dep_run_begin(run);
+    int status = dep_run_replay_open(run); /* its calls kept: a state put back elsewhere */
+    if (status == DEP_OK) {
+        status = dep_run_begin(run);
+    }
     if (status != DEP_OK) {
         dep_run_free(run);
         return status;
@@ -72,12 +82,15 @@ int dep_advance(dep_run *run, double t, dep_error *error)
                  "t = %.17g s and ends at %.17g s", t, run->state.t, run->settings.t_end);
         return dep_plain_error(error, DEP_SETTINGS_ERROR, message);
     }
-    return dep_run_until(run, t);
+    int status = dep_run_until(run, t);
+    return status == DEP_OK ? dep_run_replay_add(run, DEP_REPLAY_ADVANCE, &t, NULL, 1) : status;
 }
 
 int dep_set_inputs(dep_run *run, const double *values, const double *rates, dep_error *error)
 {
-    return dep_run_set_inputs(run, values, rates, error);
+    int status = dep_run_set_inputs(run, values, rates, error);
+    return status == DEP_OK ? dep_run_replay_add(run, DEP_REPLAY_INPUTS, values, rates,
+                                                 run->model->ni) : status;
 }
 
 double dep_time(const dep_run *run)
@@ -87,10 +100,7 @@ double dep_time(const dep_run *run)
 
 void dep_outputs(dep_run *run, double *outputs)
 {
-    const dep_state *s = &run->state;
-    if (run->model->nout > 0) {
-        run->model->outputs(s->q, s->qd, s->t, run->p, outputs);
-    }
+    dep_run_outputs(run, outputs);
 }
 
 void dep_hinge_states(dep_run *run, dep_hinge_state *out)
@@ -125,4 +135,39 @@ void dep_hinge_states(dep_run *run, dep_hinge_state *out)
 void dep_close(dep_run *run)
 {
     dep_run_free(run);
+}
+
+/* ---- a run's state saved and put back ------------------------------------------------------ */
+
+int dep_save(const dep_run *run, dep_snapshot **out, dep_error *error)
+{
+    dep_error_clear(error);
+    return dep_run_save(run, out, error);
+}
+
+int dep_restore(dep_run **run, const dep_snapshot *snapshot, dep_error *error)
+{
+    return dep_run_restore(run, snapshot, error);
+}
+
+void dep_snapshot_free(dep_snapshot *snapshot)
+{
+    dep_snapshot_destroy(snapshot);
+}
+
+size_t dep_snapshot_size(const dep_snapshot *snapshot)
+{
+    return dep_snapshot_bytes(snapshot);
+}
+
+void dep_snapshot_write(const dep_snapshot *snapshot, unsigned char *bytes)
+{
+    dep_snapshot_serialize(snapshot, bytes);
+}
+
+int dep_snapshot_read(const dep_model *model, const unsigned char *bytes, size_t size,
+                      dep_snapshot **out, dep_error *error)
+{
+    dep_error_clear(error);
+    return dep_snapshot_deserialize(model, bytes, size, out, error);
 }

@@ -63,6 +63,18 @@ STIFFNESS_ROWS = ()  # no stiff forces: the explicit step throughout
 STIFFNESS_COLS = ()
 MASS_ROWS = MASS_COLS = (0, 1, 2)  # diagonal
 FIXED_PARAMETERS = FIXED_VALUES = ()  # no structural parameters
+# the run values outputs may use: lock torques, the dissipators' work, totals
+SYSTEM_STATE = ("mass", "com_x", "com_y", "momentum_x", "momentum_y", "angular_momentum")
+RUN_VALUES = ('pivot.torque',
+              'work.damping.pivot',
+              'work.friction',
+              'work.latch',
+              'work.impacts',
+              'energy.latch')
+LIMITS = ("rod.length",)  # one range check: L > 0 (depsim.dsl.limits)
+LIMIT_KINDS = (0,)  # positive
+LIMIT_MESSAGES = ("rod.length must be positive, got %g m",)
+LIMIT_PARAMETER_ROWS = LIMIT_PARAMETER_COLS = (0,)
 
 
 def tree_values(p):
@@ -123,7 +135,19 @@ def hinge_jacobian(q, p):
     return np.array([1.0])
 
 
-def outputs(q, qd, t, p):
+def system_state(q, qd, p):
+    """Rigid bodies (x, y, phi) with the diagonal mass_matrix: mass, centre of mass, momentum,
+    angular momentum about the centre of mass."""
+    m, q, qd = np.asarray(mass_matrix(p)), np.asarray(q), np.asarray(qd)
+    mass = m[0::3].sum()
+    com = np.array([m[0::3] @ q[0::3], m[1::3] @ q[1::3]]) / mass
+    px, py = m[0::3] @ qd[0::3], m[1::3] @ qd[1::3]
+    h = (m[2::3] @ qd[2::3] + m[0::3] @ (q[0::3] * qd[1::3] - q[1::3] * qd[0::3])
+         - (com[0] * py - com[1] * px))
+    return np.array([mass, com[0], com[1], px, py, h])
+
+
+def outputs(q, qd, t, p, lam, w):
     L = p[0]
     return np.array([q[2] + np.pi / 2, qd[2], q[0] + L / 2 * np.cos(q[2]),
                      q[1] + L / 2 * np.sin(q[2])])
@@ -148,7 +172,11 @@ def hinge_gamma(q, qd, p):
 
 
 def hinge_properties(p):
-    return np.full((1, 8), np.nan)  # no latch, stop or friction
+    return np.full((1, len(HINGE_PROPERTIES)), np.nan)  # no latch, stop or friction
+
+
+def parameter_checks(p):
+    return np.array([p[0]]), np.zeros(1)
 
 
 def coordinate_scales(p):

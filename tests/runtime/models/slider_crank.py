@@ -80,6 +80,18 @@ STIFFNESS_ROWS = ()  # no stiff forces: the explicit step throughout
 STIFFNESS_COLS = ()
 MASS_ROWS = MASS_COLS = tuple(range(9))  # diagonal
 FIXED_PARAMETERS = FIXED_VALUES = ()  # no structural parameters
+# the run values outputs may use: lock torques, the dissipators' work, totals
+SYSTEM_STATE = ("mass", "com_x", "com_y", "momentum_x", "momentum_y", "angular_momentum")
+RUN_VALUES = ('crank_pin.torque',
+              'wrist.torque',
+              'gudgeon.torque',
+              'work.damping.crank_pin',
+              'work.friction',
+              'work.latch',
+              'work.impacts',
+              'energy.latch')
+LIMITS = LIMIT_KINDS = LIMIT_MESSAGES = ()  # no range checks
+LIMIT_PARAMETER_ROWS = LIMIT_PARAMETER_COLS = ()
 
 
 def tree_values(p):
@@ -158,7 +170,19 @@ def hinge_jacobian(q, p):
     return np.array([1.0, -1.0, 1.0, -1.0, 1.0])  # at HINGE_JACOBIAN_ROWS, _COLS
 
 
-def outputs(q, qd, t, p):
+def system_state(q, qd, p):
+    """Rigid bodies (x, y, phi) with the diagonal mass_matrix: mass, centre of mass, momentum,
+    angular momentum about the centre of mass."""
+    m, q, qd = np.asarray(mass_matrix(p)), np.asarray(q), np.asarray(qd)
+    mass = m[0::3].sum()
+    com = np.array([m[0::3] @ q[0::3], m[1::3] @ q[1::3]]) / mass
+    px, py = m[0::3] @ qd[0::3], m[1::3] @ qd[1::3]
+    h = (m[2::3] @ qd[2::3] + m[0::3] @ (q[0::3] * qd[1::3] - q[1::3] * qd[0::3])
+         - (com[0] * py - com[1] * px))
+    return np.array([mass, com[0], com[1], px, py, h])
+
+
+def outputs(q, qd, t, p, lam, w):
     return np.array([q[2], q[6], q[5]])
 
 
@@ -181,7 +205,11 @@ def hinge_gamma(q, qd, p):
 
 
 def hinge_properties(p):
-    return np.full((3, 8), np.nan)  # no latch, stop or friction
+    return np.full((3, len(HINGE_PROPERTIES)), np.nan)  # no latch, stop or friction
+
+
+def parameter_checks(p):
+    return np.zeros(0), np.zeros(0)
 
 
 def coordinate_scales(p):

@@ -8,7 +8,8 @@
  *
  * The same source serves every model: an FMU's sources/ hold it beside the model's generated
  * model.h and fmu_variables.c (its GUID and the tables of its variables, fmu.h) and the core
- * under core/. The variables' values are got and set in fmi2_variables.c.
+ * under core/. The variables' values are got and set in fmi2_variables.c, the FMU state is
+ * saved and put back in fmi2_state.c.
  */
 #include <math.h>
 #include <stdarg.h>
@@ -219,9 +220,12 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
         fmu->outputs = calloc(MODEL_NOUT + 1, sizeof(double));
         fmu->hinges = calloc(MODEL_NH + 1, sizeof(dep_hinge_state));
         fmu->input_values = calloc(2 * fmu_ni + 2, sizeof(double));
+        fmu->trial = calloc(MODEL_NP + 1, sizeof(double));
+        fmu->given = calloc(MODEL_NP + 1, 1);
     }
     if (fmu == NULL || fmu->name == NULL || fmu->params == NULL || fmu->outputs == NULL
-        || fmu->hinges == NULL || fmu->input_values == NULL) {
+        || fmu->hinges == NULL || fmu->input_values == NULL || fmu->trial == NULL
+        || fmu->given == NULL) {
         logger(environment, name, fmi2Error, "logError", "%s",
                "fmi2Instantiate: out of memory");
         fmi2FreeInstance(fmu);
@@ -247,6 +251,8 @@ void fmi2FreeInstance(fmi2Component c)
     free(fmu->outputs);
     free(fmu->hinges);
     free(fmu->input_values);
+    free(fmu->trial);
+    free(fmu->given);
     free(fmu);
 }
 
@@ -345,7 +351,7 @@ fmi2Status fmi2Reset(fmi2Component c)
     return fmi2OK;
 }
 
-/* ---- unsupported: FMU state ---------------------------------- */
+/* ---- unsupported: directional and output derivatives, asynchronous steps ----------------- */
 
 fmi2Status fmu_unsupported(fmi2Component c, const char *function, const char *why)
 {
@@ -353,51 +359,6 @@ fmi2Status fmu_unsupported(fmi2Component c, const char *function, const char *wh
     if (fmu == NULL)
         return fmi2Error;
     return fmu_fail(fmu, "%s is not supported: %s", function, why);
-}
-
-#define NO_STATE "the FMU state cannot be saved (canGetAndSetFMUstate = false)"
-
-fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate)
-{
-    (void)FMUstate;
-    return fmu_unsupported(c, "fmi2GetFMUstate", NO_STATE);
-}
-
-fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate)
-{
-    (void)FMUstate;
-    return fmu_unsupported(c, "fmi2SetFMUstate", NO_STATE);
-}
-
-fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *FMUstate)
-{
-    (void)FMUstate;
-    return fmu_unsupported(c, "fmi2FreeFMUstate", NO_STATE);
-}
-
-fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate FMUstate, size_t *size)
-{
-    (void)FMUstate;
-    (void)size;
-    return fmu_unsupported(c, "fmi2SerializedFMUstateSize", NO_STATE);
-}
-
-fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate FMUstate,
-                                 fmi2Byte serializedState[], size_t size)
-{
-    (void)FMUstate;
-    (void)serializedState;
-    (void)size;
-    return fmu_unsupported(c, "fmi2SerializeFMUstate", NO_STATE);
-}
-
-fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedState[],
-                                   size_t size, fmi2FMUstate *FMUstate)
-{
-    (void)serializedState;
-    (void)size;
-    (void)FMUstate;
-    return fmu_unsupported(c, "fmi2DeSerializeFMUstate", NO_STATE);
 }
 
 /* ---- Co-Simulation ------------------------------------------------------------------------ */
@@ -427,7 +388,7 @@ static void advance_inputs(fmu_instance *fmu, double h)
 fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
                       fmi2Real communicationStepSize, fmi2Boolean noSetFMUStatePriorToCurrentPoint)
 {
-    (void)noSetFMUStatePriorToCurrentPoint; /* no FMU states are kept */
+    (void)noSetFMUStatePriorToCurrentPoint; /* a state keeps what it needs (fmi2_state.c) */
     fmu_instance *fmu = fmu_enter(c, "fmi2DoStep", PHASE_STEPPING);
     if (fmu == NULL)
         return fmi2Error;

@@ -149,6 +149,34 @@ static void store(fmu_instance *fmu, int slot, double value)
         fmu->run_current = 0;
 }
 
+/* The slot of p a settable variable holds. */
+static int slot(const fmu_variable *var)
+{
+    return var->kind == FMU_INPUT ? fmu_input_slots[var->index] : var->index;
+}
+
+/* The model text's range checks (a length > 0, a friction >= 0, ...) of the parameters as
+   `nvr` values would leave them: those depending on the values of this call alone are
+   applied now (a value that breaks one is refused, whatever is set later); the others, a
+   pair set in two calls (stop_min < stop_max), when the run opens. */
+static int in_range(fmu_instance *fmu, const char *function, const fmi2ValueReference vr[],
+                    size_t nvr, const fmi2Real value[])
+{
+    dep_error error;
+    memcpy(fmu->trial, fmu->params, MODEL_NP * sizeof(double));
+    memset(fmu->given, 0, MODEL_NP);
+    for (size_t k = 0; k < nvr; ++k) {
+        int at = slot(&fmu_real_variables[vr[k]]);
+        fmu->trial[at] = value[k];
+        fmu->given[at] = 1;
+    }
+    if (dep_check_parameters(&depsim_model, fmu->trial, fmu->given, &error) != DEP_OK) {
+        fmu_fail(fmu, "%s: %s", function, error.message);
+        return 0;
+    }
+    return 1;
+}
+
 fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                        const fmi2Real value[])
 {
@@ -159,10 +187,10 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
     for (size_t k = 0; k < nvr; ++k)
         if (settable(fmu, "fmi2SetReal", vr[k], value[k]) == NULL)
             return fmi2Error;
-    for (size_t k = 0; k < nvr; ++k) {
-        const fmu_variable *var = &fmu_real_variables[vr[k]];
-        store(fmu, var->kind == FMU_INPUT ? fmu_input_slots[var->index] : var->index, value[k]);
-    }
+    if (!in_range(fmu, "fmi2SetReal", vr, nvr, value))
+        return fmi2Error;
+    for (size_t k = 0; k < nvr; ++k)
+        store(fmu, slot(&fmu_real_variables[vr[k]]), value[k]);
     return fmi2OK;
 }
 

@@ -1,5 +1,5 @@
-/* fmu.h: the FMI wrapper's own header (fmi2.c, fmi2_variables.c): what it knows of one
- * model's FMU, defined by the model's generated fmu_variables.c
+/* fmu.h: the FMI wrapper's own header (fmi2.c, fmi2_variables.c, fmi2_state.c): what it
+ * knows of one model's FMU, defined by the model's generated fmu_variables.c
  * (codegen/templates/fmu/fmu_variables.c.j2): its GUID and the tables of its variables in the
  * order of modelDescription.xml's value references; and one instance of it.
  */
@@ -39,7 +39,7 @@ extern const fmu_variable fmu_boolean_variables[];
 /* Each input's value slot in p; its rate is the next slot (fmu_ni; one more ends it). */
 extern const int fmu_input_slots[];
 
-/* ---- one instance (fmi2.c; its values: fmi2_variables.c) --------------------------------- */
+/* ---- one instance (fmi2.c; its values: fmi2_variables.c; its state: fmi2_state.c) ---- */
 
 /* Log categories (modelDescription.xml, LogCategories); errors are always reported. */
 enum { LOG_ERROR = 1, LOG_EVENTS = 2, LOG_CALLS = 4, LOG_ALL = 7 };
@@ -71,6 +71,8 @@ typedef struct fmu_instance {
     double *outputs;            /* nout, at `time` */
     dep_hinge_state *hinges;    /* nh, at `time` */
     double *input_values, *input_rates; /* fmu_ni: scratch for dep_set_inputs */
+    double *trial;              /* np: the parameters a fmi2SetReal would leave, checked first */
+    unsigned char *given;       /* np: the parameters that call sets */
 } fmu_instance;
 
 #if defined(__GNUC__) || defined(__clang__)

@@ -1,39 +1,36 @@
-/* main.c: the standalone program of a C target folder (docs/c-target.md).
+/* main.c: the standalone program of a C target folder (docs/c-target.md, section 4): its
+ * options, the run, the exit codes (program.h).
  *
- *     ./MODEL [--set NAME=VALUE]... [--t-end T] [--dt-out DT] [--tol TOL] [--max-steps N]
- *             [--stepping auto|explicit|implicit]
- *             [-o out.csv]
+ *     ./MODEL [--set NAME=VALUE]... [--input NAME=FILE.csv]... [--t-end T] [--dt-out DT]
+ *             [--tol TOL] [--max-steps N] [--stepping auto|explicit|implicit]
+ *             [-o out.csv] [--summary summary.json]
  *     ./MODEL --list          parameters, their SI units and defaults
  *
  * Values are plain numbers in SI units (m, kg, s, rad, N*m, ...); units are not parsed here
- * (`depsim run` accepts them). Writes the CSV of `depsim run`: `t`, then every output, %.17g.
- * With -o the CSV goes to the file and a summary to stdout; without, the CSV goes to stdout.
+ * (`depsim run` accepts them). Writes the CSV and the JSON summary of `depsim run`. With -o
+ * the CSV goes to the file and the run's report to stdout; without, the CSV goes to stdout.
  * Exit codes: 0 ok, 1 out of memory or an unwritable file, 2 usage error, 3 solver failure.
  */
-#if defined(__unix__) || defined(__APPLE__)
-#define _XOPEN_SOURCE 700 /* stat, lstat, realpath: what a path names */
-#include <limits.h>
-#include <sys/stat.h>
-#define HAVE_POSIX 1
-#endif
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "core/include/depsim.h"
+#include "program.h"
 #include "model.h"
-
-enum { EXIT_OK = 0, EXIT_FAILED = 1, EXIT_USAGE = 2, EXIT_SOLVER = 3 };
 
 typedef struct options {
     double p[MODEL_NP + 1];
+    unsigned char set[MODEL_NP + 1]; /* given by --set */
+    const char *set_values[MODEL_NP + 1]; /* the text --set gave each */
     dep_settings settings;
-    const char *out;
+    const char *out, *summary;
     int list;
+    int n_inputs;
+    const char **inputs; /* the --input items, NAME=FILE (room for every argument) */
 } options;
 
-static const char *program = "model";
+const char *program = "model";
 
 static int usage_error(const char *format, const char *a, const char *b)
 {
@@ -45,33 +42,43 @@ static int usage_error(const char *format, const char *a, const char *b)
 
 static void print_help(void)
 {
-    printf("usage: %s [--set NAME=VALUE]... [--t-end T] [--dt-out DT] [--tol TOL]\n"
-           "       [--max-steps N] [--stepping auto|explicit|implicit] [-o CSV]\n"
+    char t_end[DEP_FORMAT_SIZE], dt_out[DEP_FORMAT_SIZE], tol[DEP_FORMAT_SIZE];
+    dep_repr(depsim_model.t_end, t_end, sizeof t_end); /* 0.05, not 0.050000000000000003 */
+    dep_repr(depsim_model.dt_out, dt_out, sizeof dt_out);
+    dep_repr(depsim_model.tol, tol, sizeof tol);
+    printf("usage: %s [--set NAME=VALUE]... [--input NAME=CSV]... [--t-end T] [--dt-out DT]\n"
+           "       [--tol TOL] [--max-steps N] [--stepping auto|explicit|implicit] [-o CSV]\n"
+           "       [--summary JSON]\n"
            "       %s --list\n\n"
            "Simulate %s (%s) with the depsim C integrator.\n\n"
            "  --set NAME=VALUE  set a parameter, a plain number in SI units (no unit text);\n"
            "                    repeatable; --list shows the names and units\n"
-           "  --t-end T         end time, s (default %.17g)\n"
-           "  --dt-out DT       output interval, s (default %.17g)\n"
-           "  --tol TOL         integration tolerance (default %.17g)\n"
+           "  --input NAME=CSV  drive input NAME by the time table in CSV (lines 't,u' in SI,\n"
+           "                    linear in between); a constant input is a --set; repeatable\n"
+           "  --t-end T         end time, s (default %s)\n"
+           "  --dt-out DT       output interval, s (default %s)\n"
+           "  --tol TOL         integration tolerance (default %s)\n"
            "  --max-steps N     the most steps a run may take (default %.0f); a stiff run\n"
            "                    that would need more stops at once\n"
            "  --stepping S      the ODE method: auto (default: explicit, linearly implicit\n"
            "                    once a beam's stiff modes bound the explicit step),\n"
            "                    explicit or implicit (docs/method.md, 10)\n"
-           "  -o, --out CSV     write the outputs to CSV (else to stdout)\n"
+           "  -o, --out CSV     write the outputs to CSV (else to stdout) and print the report\n"
+           "  --summary JSON    write the run's JSON summary (as depsim run --summary)\n"
            "  --list            list the parameters and exit\n\n"
            "Exit codes: 0 ok, 1 failed to write or out of memory, 2 usage error, 3 solver "
            "failure.\n", program, program, depsim_model.name, depsim_model.description,
-           depsim_model.t_end, depsim_model.dt_out, depsim_model.tol, DEP_MAX_STEPS);
+           t_end, dt_out, tol, DEP_MAX_STEPS);
 }
 
 static void print_parameters(void)
 {
+    char value[DEP_FORMAT_SIZE];
     printf("%-28s %-14s %s\n", "parameter", "SI unit", "default");
     for (int i = 0; i < depsim_model.np; ++i) {
-        printf("%-28s %-14s %.17g\n", depsim_model.parameter_names[i],
-               depsim_model.parameter_units[i], depsim_model.parameter_defaults[i]);
+        dep_repr(depsim_model.parameter_defaults[i], value, sizeof value);
+        printf("%-28s %-14s %s\n", depsim_model.parameter_names[i],
+               depsim_model.parameter_units[i], value);
     }
     for (int i = 0; i < depsim_model.nfix; ++i) {
         printf("%-28s %-14s %d (structural: fixed in the model text)\n",
@@ -131,8 +138,22 @@ static const char *closest_parameter(const char *name)
     return best;
 }
 
-static int set_parameter(const char *item, double *p)
+/* `text` without the white space at either end, into out (size bytes). */
+static void stripped(const char *text, size_t length, char *out, size_t size)
 {
+    while (length > 0 && strchr(" \t\n\r\f\v", text[0]) != NULL) {
+        ++text;
+        --length;
+    }
+    while (length > 0 && strchr(" \t\n\r\f\v", text[length - 1]) != NULL) {
+        --length;
+    }
+    snprintf(out, size, "%.*s", (int)(length < size ? length : size - 1), text);
+}
+
+static int set_parameter(const char *item, options *o)
+{
+    double *p = o->p;
     char name[DEP_NAME_MAX];
     const char *equals = strchr(item, '=');
     double value;
@@ -169,7 +190,17 @@ static int set_parameter(const char *item, double *p)
                 program, name, equals + 1, depsim_model.parameter_units[index]);
         return EXIT_USAGE;
     }
+    if (o->set[index]) {
+        char before[64], now[64];
+        stripped(o->set_values[index], strlen(o->set_values[index]), before, sizeof before);
+        stripped(equals + 1, strlen(equals + 1), now, sizeof now);
+        fprintf(stderr, "%s: error: --set %s is given twice (%s and %s): give each parameter "
+                "once\n", program, name, before, now);
+        return EXIT_USAGE;
+    }
     p[index] = value;
+    o->set[index] = 1;
+    o->set_values[index] = equals + 1;
     return EXIT_OK;
 }
 
@@ -230,7 +261,9 @@ static int parse_arguments(int argc, char **argv, options *o)
         } else if (strcmp(argv[i], "--list") == 0) {
             o->list = 1;
         } else if ((value = option_value(argc, argv, &i, "--set", &missing)) != NULL) {
-            status = set_parameter(value, o->p);
+            status = set_parameter(value, o);
+        } else if ((value = option_value(argc, argv, &i, "--input", &missing)) != NULL) {
+            o->inputs[o->n_inputs++] = value;
         } else if ((value = option_value(argc, argv, &i, "--t-end", &missing)) != NULL) {
             status = positive("--t-end", value, &o->settings.t_end);
         } else if ((value = option_value(argc, argv, &i, "--dt-out", &missing)) != NULL) {
@@ -244,6 +277,8 @@ static int parse_arguments(int argc, char **argv, options *o)
         } else if ((value = option_value(argc, argv, &i, "--out", &missing)) != NULL
                    || (value = option_value(argc, argv, &i, "-o", &missing)) != NULL) {
             o->out = value;
+        } else if ((value = option_value(argc, argv, &i, "--summary", &missing)) != NULL) {
+            o->summary = value;
         } else if (!missing) {
             status = usage_error("unrecognized argument '%s'%s", argv[i], "");
         }
@@ -257,134 +292,182 @@ static int parse_arguments(int argc, char **argv, options *o)
     return EXIT_OK;
 }
 
-/* ---- results ------------------------------------------------------------------------------ */
+/* ---- --input NAME=FILE ----------------------------------------------------------------- */
 
-static int write_csv(const dep_result *r, FILE *file)
+typedef struct inputs {
+    int n;                   /* tables read */
+    dep_input_table *tables; /* one per --input item */
+    double **values;         /* 2 a table: its times and values (malloc'ed) */
+    char (*names)[DEP_NAME_MAX]; /* each item's input name */
+} inputs;
+
+static void free_inputs(inputs *in)
 {
-    fprintf(file, "t");
-    for (int j = 0; j < r->nout; ++j) {
-        fprintf(file, ",%s", depsim_model.output_names[j]);
+    for (int k = 0; in->values != NULL && k < 2 * in->n; ++k) {
+        free(in->values[k]);
     }
-    fprintf(file, "\n");
-    char number[DEP_FORMAT_SIZE];
-    for (int i = 0; i < r->n; ++i) { /* as "%.17g" (dep_format_double) */
-        fwrite(number, 1, (size_t)dep_format_double(r->times[i], number), file);
-        for (int j = 0; j < r->nout; ++j) {
-            putc(',', file);
-            fwrite(number, 1, (size_t)dep_format_double(r->outputs[(size_t)i * (size_t)r->nout
-                                                                    + (size_t)j], number), file);
-        }
-        putc('\n', file);
-    }
-    return ferror(file) ? EXIT_FAILED : EXIT_OK;
+    free(in->values);
+    free(in->tables);
+    free(in->names);
 }
 
-/* What -o names, as `depsim run` treats it: a regular file or nothing yet is written next to
-   it and renamed over it (a failure never leaves a half-written file; a symbolic link is
-   followed, its target replaced and the link kept); a pipe or a device (/dev/null, a
-   terminal, /dev/fd/N) is written in place, never replaced; a folder is refused. */
-enum { PATH_FILE, PATH_IN_PLACE, PATH_FOLDER };
-
-static int path_kind(const char *path)
+/* NAME and FILE of an --input item, as `depsim run` splits it; EXIT_USAGE if it is not one. */
+static int input_item(const char *item, char *name, char *path)
 {
-#ifdef HAVE_POSIX
-    struct stat st;
-    if (stat(path, &st) != 0 || S_ISREG(st.st_mode)) {
-        return PATH_FILE;
+    const char *equals = strchr(item, '=');
+    if (equals != NULL) {
+        stripped(item, (size_t)(equals - item), name, DEP_NAME_MAX);
+        stripped(equals + 1, strlen(equals + 1), path, PROGRAM_PATH_MAX);
     }
-    return S_ISDIR(st.st_mode) ? PATH_FOLDER : PATH_IN_PLACE;
-#else
-    (void)path;
-    return PATH_FILE;
-#endif
+    if (equals == NULL || name[0] == '\0' || path[0] == '\0') {
+        fprintf(stderr, "%s: error: --input '%s': expected NAME=FILE, e.g. --input "
+                "T_motor=torque.csv\n", program, item);
+        return EXIT_USAGE;
+    }
+    return EXIT_OK;
 }
 
-static int save_csv(const dep_result *r, const char *path)
+/* An input given a table and a value: refused before anything is read. */
+static int table_and_value(const options *o, const char *name)
 {
-    char partial[4096], target[4096];
-    int kind = path_kind(path), status;
-    if (kind == PATH_FOLDER) {
-        fprintf(stderr, "%s: error: cannot write '%s': it is a folder\n", program, path);
+    char given[DEP_NAME_MAX + 8];
+    for (int rate = 0; rate < 2; ++rate) {
+        snprintf(given, sizeof given, "%s%s", name, rate ? ".rate" : "");
+        int index = dep_parameter_index(&depsim_model, given);
+        if (index >= 0 && o->set[index]) {
+            fprintf(stderr, "%s: error: input %s is given both a table (--input %s=...) and a "
+                    "value (--set %s=...): give one\n", program, name, name, given);
+            return EXIT_USAGE;
+        }
+    }
+    return EXIT_OK;
+}
+
+static int input_index(const char *name)
+{
+    for (int k = 0; k < depsim_model.ni; ++k) {
+        if (strcmp(depsim_model.input_names[k], name) == 0) {
+            return k;
+        }
+    }
+    return -1;
+}
+
+static int unknown_input(const char *name)
+{
+    fprintf(stderr, "%s: error: unknown input '%s'; the model's inputs: ", program, name);
+    for (int k = 0; k < depsim_model.ni; ++k) {
+        fprintf(stderr, "%s%s", k ? ", " : "", depsim_model.input_names[k]);
+    }
+    fprintf(stderr, "%s\n", depsim_model.ni ? "" : "none: the model has no `input` statement");
+    return EXIT_USAGE;
+}
+
+/* One --input item's table (k: its place), unless its input was given one before. */
+static int read_input(inputs *in, int k, const char *path)
+{
+    for (int j = 0; j < k; ++j) {
+        if (strcmp(in->names[j], in->names[k]) == 0) {
+            fprintf(stderr, "%s: error: --input %s is given twice: give each input one table\n",
+                    program, in->names[k]);
+            return EXIT_USAGE;
+        }
+    }
+    dep_input_table *table = &in->tables[k];
+    ++in->n;
+    int status = program_read_table(in->names[k], path, &in->values[2 * k],
+                                     &in->values[2 * k + 1], &table->n);
+    table->t = in->values[2 * k];
+    table->u = in->values[2 * k + 1];
+    return status;
+}
+
+/* The --input tables, read as `depsim run --input` reads them (program_tables.c), in `in`:
+   the items' form and their clashes with --set first, then each file, then the names. */
+static int read_inputs(const options *o, inputs *in)
+{
+    char path[PROGRAM_PATH_MAX];
+    int status = EXIT_OK, n = o->n_inputs;
+    in->tables = calloc((size_t)n + 1, sizeof *in->tables);
+    in->values = calloc(2 * (size_t)n + 1, sizeof *in->values);
+    in->names = calloc((size_t)n + 1, sizeof *in->names);
+    if (in->tables == NULL || in->values == NULL || in->names == NULL) {
+        fprintf(stderr, "%s: error: out of memory\n", program);
         return EXIT_FAILED;
     }
-    if (kind == PATH_IN_PLACE) {
-        FILE *file = fopen(path, "w");
-        status = file == NULL ? EXIT_FAILED : write_csv(r, file);
-        if (file != NULL && fclose(file) != 0) {
-            status = EXIT_FAILED;
+    for (int k = 0; k < n && status == EXIT_OK; ++k) {
+        if ((status = input_item(o->inputs[k], in->names[k], path)) == EXIT_OK) {
+            status = table_and_value(o, in->names[k]);
         }
-        if (status != EXIT_OK) {
-            fprintf(stderr, "%s: error: cannot write '%s'\n", program, path);
+    }
+    for (int k = 0; k < n && status == EXIT_OK; ++k) {
+        input_item(o->inputs[k], in->names[k], path);
+        status = read_input(in, k, path);
+    }
+    for (int k = 0; k < n && status == EXIT_OK; ++k) {
+        in->tables[k].input = input_index(in->names[k]);
+        status = in->tables[k].input < 0 ? unknown_input(in->names[k]) : EXIT_OK;
+    }
+    return status;
+}
+
+/* ---- the run -------------------------------------------------------------------------------- */
+
+/* The run and its outputs, once the options are read. */
+static int run(options *o)
+{
+    program_output outputs[2] = {{"-o", o->out, program_write_csv, 0, "", ""},
+                                 {"--summary", o->summary, program_write_summary, 0, "", ""}};
+    inputs in = {0, NULL, NULL, NULL};
+    dep_result result;
+    dep_error error;
+    int status = program_check_outputs(outputs, 2);
+    if (status == EXIT_OK && (status = read_inputs(o, &in)) == EXIT_OK) {
+        o->settings.tables = in.tables;
+        o->settings.n_tables = in.n;
+        status = dep_simulate(&depsim_model, o->p, &o->settings, NULL, 0, &result, &error);
+        if (status == DEP_SOLVER_ERROR) {
+            fprintf(stderr, "%s: solver failure: %s\n", program, error.message);
+            status = EXIT_SOLVER;
+        } else if (status != DEP_OK) {
+            fprintf(stderr, "%s: error: %s\n", program, error.message);
+            status = status == DEP_SETTINGS_ERROR ? EXIT_USAGE : EXIT_FAILED;
+        } else {
+            status = program_write_outputs(outputs, 2, &result);
+            if (status == EXIT_OK && o->out != NULL) {
+                fputs(result.report, stdout);
+            } else if (status == EXIT_OK) {
+                status = program_write_csv(&result, stdout);
+            }
+            dep_result_free(&result);
         }
-        return status;
     }
-    const char *to = path;
-#ifdef HAVE_POSIX
-    struct stat st;
-    char resolved[PATH_MAX];
-    if (lstat(path, &st) == 0 && S_ISLNK(st.st_mode) && realpath(path, resolved) != NULL) {
-        to = resolved; /* the link's target is replaced, the link kept */
-    }
-#endif
-    if (snprintf(target, sizeof target, "%s", to) >= (int)sizeof target
-        || snprintf(partial, sizeof partial, "%s.partial", to) >= (int)sizeof partial) {
-        fprintf(stderr, "%s: error: output path too long\n", program);
-        return EXIT_FAILED;
-    }
-    FILE *file = fopen(partial, "w");
-    status = file == NULL ? EXIT_FAILED : write_csv(r, file);
-    if (file != NULL && fclose(file) != 0) {
-        status = EXIT_FAILED;
-    }
-    if (status == EXIT_OK && rename(partial, target) != 0) {
-        status = EXIT_FAILED;
-    }
-    if (status != EXIT_OK) {
-        remove(partial);
-        fprintf(stderr, "%s: error: cannot write '%s'\n", program, path);
-    }
+    free_inputs(&in);
     return status;
 }
 
 int main(int argc, char **argv)
 {
     options o;
-    dep_result result;
-    dep_error error;
     program = depsim_model.name;
     if (argc > 0 && argv[0][0] != '\0') { /* the program's base name */
         program = strrchr(argv[0], '/') != NULL ? strrchr(argv[0], '/') + 1 : argv[0];
     }
+    memset(&o, 0, sizeof o);
     memcpy(o.p, depsim_model.parameter_defaults, (size_t)depsim_model.np * sizeof(double));
     o.settings = dep_default_settings(&depsim_model);
     o.settings.rows = DEP_ROWS_OUTPUTS; /* the CSV's outputs and the summary's loads and work */
-    o.out = NULL;
-    o.list = 0;
+    o.inputs = malloc((size_t)(argc > 0 ? argc : 1) * sizeof *o.inputs);
+    if (o.inputs == NULL) {
+        fprintf(stderr, "%s: error: out of memory\n", program);
+        return EXIT_FAILED;
+    }
     int status = parse_arguments(argc, argv, &o);
-    if (status != EXIT_OK) {
-        return status < 0 ? EXIT_OK : status;
-    }
-    if (o.list) {
+    if (status == EXIT_OK && o.list) {
         print_parameters();
-        return EXIT_OK;
+    } else if (status == EXIT_OK) {
+        status = run(&o);
     }
-    status = dep_simulate(&depsim_model, o.p, &o.settings, NULL, 0, &result, &error);
-    if (status == DEP_SOLVER_ERROR) {
-        fprintf(stderr, "%s: solver failure: %s\n", program, error.message);
-        return EXIT_SOLVER;
-    }
-    if (status != DEP_OK) {
-        fprintf(stderr, "%s: error: %s\n", program, error.message);
-        return status == DEP_SETTINGS_ERROR ? EXIT_USAGE : EXIT_FAILED;
-    }
-    if (o.out != NULL) {
-        status = save_csv(&result, o.out);
-        if (status == EXIT_OK) {
-            fputs(result.report, stdout);
-        }
-    } else {
-        status = write_csv(&result, stdout);
-    }
-    dep_result_free(&result);
-    return status;
+    free(o.inputs);
+    return status < 0 ? EXIT_OK : status;
 }
