@@ -173,11 +173,11 @@ def test_agrees_with_the_joint_coordinate_solution_and_converges_with_tol(hand_r
     """depsim's C target against the hand solver over the whole deployment, creep phases,
     latches and all. The hinges' friction is prescribed over each step like the multipliers
     (docs/method.md, 2), its end value iterated to the law and its interpolation error
-    controlled; these are the errors that control must keep. Measured: 4.5e-6, 2.7e-7,
-    1.1e-8 rad at tol 1e-6, 1e-8, 1e-10 (the hand solver's own at those tols: 1.4e-4, 4.6e-7,
-    2.1e-9). The bounds: within 20 tol at 1e-6 and 50 tol at 1e-8, an error-per-step
-    controller's global error being tol times a power of the step count below one; within
-    1e-6 rad at 1e-10 (the accuracy the project keeps); and falling with tol.
+    controlled, and the step's end moved by the defect it measures (docs/method.md, 4), so
+    the error falls in proportion to tol. Measured 4.1, 8.8 and 6.7 tol at tol 1e-6, 1e-8,
+    1e-10 (the hand solver's own: 144, 46 and 21 tol; without the friction move depsim's grew
+    as tol^0.7, 7.8, 26 and 116 tol). The bound, 15 tol at each, leaves room for another
+    machine's round-off to move the steps; and the error falls with tol.
 
     And the cost that accuracy takes: a trial step integrates once (6 force evaluations) and
     moves that trajectory's end linearly for every further trial of its multipliers and
@@ -193,6 +193,6 @@ def test_agrees_with_the_joint_coordinate_solution_and_converges_with_tol(hand_r
         errors.append(float(np.max(np.abs(result.hinge_angles - hand_reference[:, 1:5]))))
         stats = result.stats
         costs.append(stats.rhs_evaluations / (stats.accepted_steps + stats.rejected_steps))
-    assert errors[0] < 20 * 1e-6 and errors[1] < 50 * 1e-8 and errors[2] < 1e-6, errors
+    assert errors[0] < 15 * 1e-6 and errors[1] < 15 * 1e-8 and errors[2] < 15 * 1e-10, errors
     assert errors[0] > errors[1] > errors[2], errors
     assert max(costs) < 8.0, costs

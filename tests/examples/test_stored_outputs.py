@@ -67,12 +67,13 @@ def test_the_example_is_what_it_was(name, runs, same_arithmetic, monkeypatch):
 
 def test_the_bounds_tell_a_change_of_the_method(runs, tmp_path):
     """The bounds are tight enough to see what a change of the method does: INTELSAT V at
-    tol 1e-8 against itself at tol 1e-9 (the step control's own error, tol^0.7) leaves them."""
+    tol 1e-8 against itself at tol 1e-7 (whose own error, about 5 of its tols, is 50 of the
+    stored run's) leaves them."""
     text, _ = runs("intelsat5")
     reference_text, _ = stored_outputs.stored("intelsat5")
     assert stored_outputs.output_differences(text, reference_text, 1e-8) == []
-    done = run_cli("run", EXAMPLES / "intelsat5.dep", "--target", "c", "--tol", "1e-9",
-                   "-o", tmp_path / "tighter.csv")
+    done = run_cli("run", EXAMPLES / "intelsat5.dep", "--target", "c", "--tol", "1e-7",
+                   "-o", tmp_path / "looser.csv")
     assert done.returncode == 0, done.stderr
-    tighter = (tmp_path / "tighter.csv").read_text()
-    assert stored_outputs.output_differences(tighter, reference_text, 1e-8) != []
+    looser = (tmp_path / "looser.csv").read_text()
+    assert stored_outputs.output_differences(looser, reference_text, 1e-8) != []

@@ -177,10 +177,13 @@ static int violated(settle_context *x, int *pending, int *n_pending, dep_error *
 
 static int settle_error(settle_context *x, int status, double t, int limit, dep_error *error)
 {
-    char what[400];
+    char what[700];
     if (status == DEP_PASS_FAILED) {
-        snprintf(what, sizeof what, "a mechanism transition did not converge: %s",
-                 x->failure.reason);
+        const dep_failure *f = &x->failure;
+        snprintf(what, sizeof what, "a mechanism transition did not converge: %s; residual "
+                 "%.3g, limit %.3g, round-off %.2g, condition of Phi_q M^-1 Phi_q^T about "
+                 "%.1e (rank %d of %d rows)", f->reason, f->residual, f->limit, f->roundoff,
+                 f->condition, f->rank, f->rows);
         return dep_solver_error(error, 1, t, "event", NULL, NULL, 1, x->failure.residual, what,
                                 "a latch or stop made the constraints redundant and "
                                 "inconsistent, or Phi_q singular");

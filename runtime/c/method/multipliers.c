@@ -70,6 +70,15 @@ static void deflate(const dep_multipliers *mp, int nc, double *x);
 /* max_i |v_i| / size_i, the error in units of each row's size (NaN kept); the row in *row.
    With null vectors n of S at hand (a singular position, redundant rows: dep_schur_nulls), v
    less its part along them, n (n . v): no multiplier reaches that part (docs/method.md, 2). */
+/* The round-off level of the rows' residuals: ROUNDOFF_TERMS eps of their largest term, times
+   sqrt(nc) for the update's solve with S, which couples the nc rows and sums their roundings
+   (which grow as the square root of their number; the accordion's fully latched array, 39
+   rows, stalls at 86 eps of its largest term). */
+static double roundoff_level(const dep_measurement *m, int nc)
+{
+    return ROUNDOFF_TERMS * DEP_EPS * sqrt((double)nc) * dep_max_abs(m->magnitude, nc);
+}
+
 static double relative_error(const dep_multipliers *mp, const dep_measurement *m, int nc,
                              int *row)
 {
@@ -120,8 +129,7 @@ static int fail(const dep_multipliers *mp, int stage, const dep_measurement *cur
     failure->row = row;
     failure->residual = fabs(current->v[row]);
     failure->limit = tol * current->size[row];
-    failure->roundoff = sized ? ROUNDOFF_TERMS * DEP_EPS * dep_max_abs(current->magnitude, nc)
-                              : 0.0;
+    failure->roundoff = sized ? roundoff_level(current, nc) : 0.0;
     failure->rows = nc;
     failure->rank = nc - (mp->schur_factored ? mp->schur_dropped : 0);
     failure->weak_row = mp->schur_factored ? mp->schur_min_row : -1;
@@ -270,7 +278,7 @@ static int at_roundoff(dep_multipliers *mp, dep_measure_function measure, void *
     int row;
     measure(context, lam, 1, current);
     relative_error(mp, current, nc, &row); /* (its range part into mp->range) */
-    double roundoff = ROUNDOFF_TERMS * DEP_EPS * dep_max_abs(current->magnitude, nc);
+    double roundoff = roundoff_level(current, nc);
     for (int i = 0; i < nc; ++i) {
         double v = fabs(mp->range[i]);
         if (!(v <= tol * current->size[i] || v <= roundoff)) {

@@ -102,6 +102,7 @@ static int setup(dep_run *run, const double *params, const dep_event *events, in
     run->friction_predicted = dep_doubles(arena, nh);
     run->friction_d = dep_doubles(arena, nh);
     run->friction_table = dep_doubles(arena, 2 * (size_t)nh);
+    run->friction_move = dep_doubles(arena, ny);
     run->normal = dep_doubles(arena, 4 * capacity + 6 * nq);
     double **vectors[] = {&run->y, &run->dy, &run->work};
     for (size_t i = 0; i < 3; ++i) {

@@ -160,6 +160,9 @@ struct dep_run { /* typedef in depsim.h */
     dep_history history;
     dep_history friction;      /* the hinges' friction torques at the same points (nh) */
     double *friction_predicted, *friction_table, *friction_d; /* scratch */
+    double *friction_move; /* ny: what the prescribed frictions' defect moves the step's end
+                              by (steps.c), added to it when the step is accepted */
+    int friction_moved;    /* whether friction_move holds the last step's move */
     int friction_steps;   /* accepted steps in a row held by friction's damping (step_budget) */
     dep_prior prior;
     dep_loads loads;

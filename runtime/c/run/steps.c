@@ -164,6 +164,7 @@ static void interpolation_errors(dep_run *run, const dep_outcome *outcome,
     e->lam_order = nodes + 3;
     e->lam = e->friction = 0.0;
     e->friction_order = 0;
+    run->friction_moved = 0;
     if (nc > 0) {
         if (dep_divided_difference(profile, &run->history, new->lam, d, table)) {
             double factor = pow(h, nodes + 3) * profile->excursion;
@@ -194,6 +195,13 @@ static void interpolation_errors(dep_run *run, const dep_outcome *outcome,
     for (int i = 0; i < nh; ++i) {
         defect[i] = 2.0 / 3.0 * (law[i] - prescribed[i]);
     }
+    double *add = run->friction_move, *work = add + 2 * nq;
+    memset(work, 0, (size_t)run->nd * sizeof *work);
+    for (int i = 0, k = run->model->nd; i < nh; ++i) { /* each friction's work: -tau rate */
+        if (system->hinges[i].has_friction) {
+            work[k++] = -h * defect[i] * system->rates[i]; /* the middle's rates, from the law */
+        }
+    }
     system->model->hinge_jacobian(new->q, system->p, system->hinge_jacobian);
     dep_hinge_transpose_times(system, system->hinge_jacobian, defect, column);
     dep_mass_solve(&system->mass, column, excursion);
@@ -205,6 +213,34 @@ static void interpolation_errors(dep_run *run, const dep_outcome *outcome,
     }
     e->friction = dep_rms(move, scale, 2 * nq) * sqrt(2.0 * nq / run->ny);
     e->friction_order = friction->nodes + 2;
+    memcpy(add, move, 2 * (size_t)nq * sizeof *add);
+    run->friction_moved = 1;
+}
+
+/* An accepted step that prescribed the friction torques ends where the law's torques would
+   have taken it, to the accuracy of the defect's estimate: its end moves by the tangential
+   move e->friction measured (h^2 integral (1 - u) d in q, h integral d in qd, Mc^-1 J_h^T)
+   and each friction's work by h integral d rate, and the law's torques at the moved end are
+   the step's accepted ones. What is left is the estimate's own error, of higher order, as
+   DOPRI keeps its fifth-order solution and controls the fourth's error: the run's error then
+   falls in proportion to tol (docs/method.md, 4). */
+static void add_friction_move(dep_run *run)
+{
+    if (!run->friction_moved) {
+        return;
+    }
+    dep_state *end = &run->outcome.state;
+    const double *add = run->friction_move;
+    int nq = run->nq;
+    for (int j = 0; j < nq; ++j) {
+        end->q[j] += add[j];
+        end->qd[j] += add[nq + j];
+    }
+    for (int k = 0; k < run->nd; ++k) {
+        end->work[k] += add[2 * nq + k];
+    }
+    dep_friction_law(&run->system, end->q, end->qd, run->outcome.friction);
+    run->friction_moved = 0;
 }
 
 /* The step's errors in tolerance units (1 = at tolerance; method/control.c). */
@@ -419,6 +455,7 @@ int dep_run_advance(dep_run *run, double *h)
               run->outcome.reports[1].iterations, run->outcome.reports[2].iterations,
               run->outcome.integrations, accepted ? "accepted" : "rejected");
         if (accepted) {
+            add_friction_move(run);
             dep_tally_accept(&run->tally, run->outcome.reports, *h);
             dep_history_learn(&run->history, *h, run->predicted, run->stepper.lam_first);
             dep_run_attach_prior(run, &run->outcome);
