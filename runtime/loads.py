@@ -43,6 +43,8 @@ class PeakLoad:
     t_force: float
     torque: float
     t_torque: float
+    unique: bool = True  # False: the hinge's rows were redundant at some state (a singular
+    # position, or rows repeating others); its loads are then the minimum-norm ones
 
 
 @dataclass(frozen=True, slots=True)

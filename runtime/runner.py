@@ -232,7 +232,8 @@ def _records(module, r) -> tuple[EventRecord, ...]:
 
 def _peaks(module, r) -> dict:
     return {h: PeakLoad(float(r.peak_loads[k].force), float(r.peak_loads[k].t_force),
-                        float(r.peak_loads[k].torque), float(r.peak_loads[k].t_torque))
+                        float(r.peak_loads[k].torque), float(r.peak_loads[k].t_torque),
+                        bool(r.peak_loads[k].unique))
             for k, h in enumerate(module.HINGES)}
 
 

@@ -232,3 +232,59 @@ def test_a_start_at_rest_in_a_dead_point_is_called_ill_conditioned(tmp_path):
     condition = float(text.split("Phi_q^T is about ")[1].split(" ")[0])
     assert condition >= 1e8
     assert "looser tol" not in text
+
+
+# -- redundant rows ---------------------------------------------------------------------------
+
+REDUNDANT = """model redundant "a parallelogram with a third, redundant crank"
+gravity = (0, -9.81) m/s^2
+bar c0 { length = 1 m; mass = 1 kg; inertia = 1 kg * (1 m)^2 / 12 }
+bar c1 { length = 1 m; mass = 1 kg; inertia = 1 kg * (1 m)^2 / 12 }
+bar c2 { length = 1 m; mass = 1 kg; inertia = 1 kg * (1 m)^2 / 12 }
+body k {
+    mass = 2 kg
+    inertia = 2 kg * (2 m)^2 / 12
+    point a = (-1, 0) m
+    point m = (0, 0) m
+    point b = (1, 0) m
+}
+ground { point p1 = (1, 0) m; point p2 = (2, 0) m }
+hinge g0 joins ground.origin to c0.a { }
+hinge g1 joins ground.p1 to c1.a { }
+hinge g2 joins ground.p2 to c2.a { }
+hinge a0 joins c0.b to k.a { }
+hinge a1 joins c1.b to k.m { }
+hinge a2 joins c2.b to k.b { }
+initial { g0 = 30 deg; g0.rate = 0 rad/s }
+simulate { t_end = 3 s; tol = 1e-8; dt_out = 0.01 s }
+output crank = g0
+output rate = g0.rate
+"""
+
+
+def test_a_redundant_crank_runs_with_minimum_norm_loads_said_not_unique(build):
+    """Three equal cranks carry the coupler: two rows of the nine are redundant at every
+    position (rank 7 of 9 with the coupler's angle held twice over). The run follows the
+    one-angle equation I theta'' = -dV/dtheta (I = 3 (1/3) + 2 = 3 kg m^2, V = 3.5 g sin theta
+    J); the loads are the minimum-norm multipliers', so the three cranks share alike, and
+    every hinge's peak load says it is not unique."""
+    tol = 1e-8
+    result = build(REDUNDANT, "redundant").run()
+    assert result.times[-1] == pytest.approx(3.0)
+
+    def rhs(t, y):
+        return [y[1], -3.5 * 9.81 * np.cos(y[0]) / 3.0]
+
+    reference = solve_ivp(rhs, (0, 3.0), [np.radians(30), 0.0], method="DOP853",
+                          t_eval=result.times, rtol=1e-13, atol=1e-14).y
+    assert np.max(np.abs(result.output("crank") - reference[0])) < 100 * tol
+    peaks = result.peak_loads
+    assert all(not peaks[h].unique for h in ("g0", "g1", "g2", "a0", "a1", "a2"))
+    forces = [peaks[h].force for h in ("g0", "g1", "g2")]
+    assert max(forces) - min(forces) < 1e-6 * max(forces)
+    assert "not unique" in result.report_text
+
+
+def test_loads_of_a_mechanism_without_redundant_rows_are_unique(build):
+    result = build(FOURBAR.format(angle=60), "fourbar60").run()
+    assert all(peak.unique for peak in result.peak_loads.values())

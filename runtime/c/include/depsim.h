@@ -222,9 +222,12 @@ typedef struct dep_event_record {
 
 /* Largest hinge force magnitude (N) and lock torque magnitude (N m) over a run, with their
    times (s): force 0 / t_force NAN when the hinge never carried a force; torque 0 /
-   t_torque NAN when nothing ever held it. */
+   t_torque NAN when nothing ever held it. unique 0: the hinge's rows were redundant at an
+   accepted state (a singular position, or rows that repeat others): its loads there are
+   the minimum-norm multipliers', one of many sets that hold the mechanism. */
 typedef struct dep_peak {
     double force, t_force, torque, t_torque;
+    int unique;
 } dep_peak;
 
 /* A latch that engaged (its first engagement). */

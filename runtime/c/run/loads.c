@@ -24,11 +24,13 @@ int dep_loads_init(dep_loads *loads, const dep_model *model, dep_arena *arena)
     loads->forces = dep_doubles(arena, 2 * nh);
     loads->torques = dep_doubles(arena, nh);
     loads->rows = dep_bytes(arena, (2 * nh + 1) * sizeof *loads->rows);
+    loads->redundant = dep_bytes(arena, (nh + 1) * sizeof *loads->redundant);
     if (arena->failed) {
         return DEP_MEMORY_ERROR;
     }
     for (size_t k = 0; k < nh; ++k) {
         loads->t_force[k] = loads->t_torque[k] = NAN;
+        loads->redundant[k] = 0;
     }
     dep_hinge_force_rows(model, loads->rows);
     return DEP_OK;
@@ -57,6 +59,33 @@ void dep_loads_observe(dep_loads *loads, double t, const double *forces, const d
         if (isfinite(size) && size > loads->torque[k]) {
             loads->torque[k] = size;
             loads->t_torque[k] = t;
+        }
+    }
+}
+
+/* The hinges whose rows take part in a null direction of S at this state (the factor's,
+   docs/method.md, 6a): their multipliers are the minimum-norm ones, not the only ones. A row
+   takes part when its component is more than NULL_SHARE of the direction's largest. */
+#define NULL_SHARE 1e-3
+
+void dep_loads_mark_redundant(dep_loads *loads, const dep_constraints *cs,
+                              dep_multipliers *mp)
+{
+    if (mp->schur_factored && mp->schur_dropped > 0) { /* rows dropped: their directions */
+        dep_schur_nulls(mp, cs->nc);
+    }
+    if (mp->n_nulls == 0 || mp->nulls_id != mp->schur_id) {
+        return;
+    }
+    for (int k = 0; k < mp->n_nulls; ++k) {
+        const double *n = mp->nulls + (size_t)k * (size_t)cs->nc;
+        double largest = dep_max_abs(n, cs->nc);
+        for (int i = 0; i < cs->nc; ++i) {
+            int hinge = i < cs->nc_module ? loads->model->constraint_hinges[i]
+                                          : cs->row_hinges[i];
+            if (hinge >= 0 && fabs(n[i]) > NULL_SHARE * largest) {
+                loads->redundant[hinge] = 1;
+            }
         }
     }
 }

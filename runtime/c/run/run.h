@@ -40,11 +40,14 @@ typedef struct dep_loads {
     double *force, *t_force, *torque, *t_torque; /* nh: the running peaks */
     double *forces, *torques;                     /* 2 nh, nh scratch */
     int *rows;                                    /* 2 nh: each hinge's rows x, y, or -1 */
+    int *redundant; /* nh: 1 once the hinge's rows were redundant at an accepted state */
 } dep_loads;
 
 int dep_loads_init(dep_loads *loads, const dep_model *model, dep_arena *arena);
 void dep_hinge_forces(const dep_loads *loads, const double *lam, double *forces);
 void dep_loads_observe(dep_loads *loads, double t, const double *forces, const double *torques);
+void dep_loads_mark_redundant(dep_loads *loads, const dep_constraints *cs,
+                              dep_multipliers *mp);
 
 /* ---- recording.c: outputs at the requested times; the Result --------------------------- */
 

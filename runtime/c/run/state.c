@@ -127,6 +127,7 @@ void dep_run_observe_loads(dep_run *run, const dep_state *s)
         dep_lock_torques(run->model, &run->cs, s->lam, loads->torques);
     }
     dep_loads_observe(loads, s->t, loads->forces, loads->torques);
+    dep_loads_mark_redundant(loads, &run->cs, &run->stepper.mp);
 }
 
 /* ---- recording ----------------------------------------------------------------------------- */

@@ -110,7 +110,7 @@ static int peak_loads(const dep_model *m, const dep_loads *loads, dep_result *r)
         return DEP_MEMORY_ERROR;
     }
     for (int k = 0; k < m->nh; ++k) {
-        dep_peak p = {0.0, NAN, 0.0, NAN};
+        dep_peak p = {0.0, NAN, 0.0, NAN, !loads->redundant[k]};
         for (int i = 0; i < r->n; ++i) {
             const double *f = r->hinge_force + ((size_t)i * (size_t)r->nh + (size_t)k) * 2;
             double force = hypot(f[0], f[1]);
@@ -223,6 +223,9 @@ static void load_lines(const dep_model *m, const dep_result *r, text *out)
         put(out, "    %s: %.4g N at t = %.6g s", m->hinge_names[k], p->force, p->t_force);
         if (p->torque > 0) {
             put(out, ", torque %.4g N*m at t = %.6g s", p->torque, p->t_torque);
+        }
+        if (!p->unique) {
+            put(out, " (not unique: its rows were redundant; the minimum-norm loads)");
         }
         put(out, "\n");
     }

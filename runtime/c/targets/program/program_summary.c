@@ -300,6 +300,8 @@ static void peak_loads(json *j, const dep_result *r)
             key(j, names[v]);
             optional(j, values[v], 0);
         }
+        key(j, "unique");
+        fputs(p->unique ? "true" : "false", j->file);
         close_(j, '}');
     }
     close_(j, '}');
