@@ -133,19 +133,14 @@ output rate = g0.rate
 """
 
 
-def one_angle(times):
-    """The parallelogram's crank angle and rate from its one-angle equation: both cranks and
-    the coupler's centre move as the crank's tip does, the coupler does not turn, so
-    I theta'' = -dV/dtheta with I = 2 m L^2 / 3 + m L^2, V = (m g L / 2) 2 sin theta
-    + m g L sin theta; DOP853 at rtol 1e-13."""
-    m, L, g = 1.0, 1.0, 9.81
-    inertia = 2 * m * L ** 2 / 3 + m * L ** 2
-    torque = 2 * m * g * L
-
+def one_angle(times, start_deg, inertia, weight):
+    """Crank angle and rate of a parallelogram linkage released at rest from its one-angle
+    equation I theta'' = -dV/dtheta, V = weight sin theta (J): the cranks turn about their
+    pivots and the coupler translates with their tips. DOP853 at rtol 1e-13."""
     def rhs(t, y):
-        return [y[1], -torque * np.cos(y[0]) / inertia]
+        return [y[1], -weight * np.cos(y[0]) / inertia]
 
-    done = solve_ivp(rhs, (0, times[-1]), [np.radians(10), 0.0], method="DOP853",
+    done = solve_ivp(rhs, (0, times[-1]), [np.radians(start_deg), 0.0], method="DOP853",
                      t_eval=times, rtol=1e-13, atol=1e-14)
     return done.y
 
@@ -158,7 +153,9 @@ def test_a_parallelogram_passes_its_singular_position(build):
     tol = 1e-8
     result = build(PARALLELOGRAM, "parallelogram").run(tol=tol)
     assert result.times[-1] == pytest.approx(5.0)
-    angle, rate = one_angle(result.times)
+    # two cranks (m L^2 / 3 each about its pivot) and the coupler (m L^2, translating);
+    # V = 2 (m g L / 2) sin theta + m g L sin theta
+    angle, rate = one_angle(result.times, 10, 2 / 3 + 1, 2 * 9.81)
     crossings = np.count_nonzero(np.diff(np.sign(angle)) != 0)
     assert crossings >= 4
     assert np.max(np.abs(result.output("crank") - angle)) < 100 * tol
@@ -271,13 +268,8 @@ def test_a_redundant_crank_runs_with_minimum_norm_loads_said_not_unique(build):
     tol = 1e-8
     result = build(REDUNDANT, "redundant").run()
     assert result.times[-1] == pytest.approx(3.0)
-
-    def rhs(t, y):
-        return [y[1], -3.5 * 9.81 * np.cos(y[0]) / 3.0]
-
-    reference = solve_ivp(rhs, (0, 3.0), [np.radians(30), 0.0], method="DOP853",
-                          t_eval=result.times, rtol=1e-13, atol=1e-14).y
-    assert np.max(np.abs(result.output("crank") - reference[0])) < 100 * tol
+    angle, _ = one_angle(result.times, 30, 3.0, 3.5 * 9.81)
+    assert np.max(np.abs(result.output("crank") - angle)) < 100 * tol
     peaks = result.peak_loads
     assert all(not peaks[h].unique for h in ("g0", "g1", "g2", "a0", "a1", "a2"))
     forces = [peaks[h].force for h in ("g0", "g1", "g2")]

@@ -17,8 +17,6 @@ EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 def generated(tmp_path_factory):
     import depsim.codegen as codegen
     import depsim.dsl as dsl
-    if not hasattr(codegen, "compile_numpy"):
-        pytest.skip("depsim.codegen.compile_numpy is not available yet")
     out = tmp_path_factory.mktemp("generated")
     return {name: codegen.load_generated(codegen.compile_numpy(
         dsl.load_model(EXAMPLES / f"{name}.dep"), out)) for name in ("pendulum", "slider_crank")}

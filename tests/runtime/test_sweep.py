@@ -406,18 +406,13 @@ HAND_MADE_PENDULUM = os.path.join(os.path.dirname(__file__), "models", "pendulum
 
 def real_simulate():
     import depsim.runtime as runtime
-    if not hasattr(runtime, "simulate"):
-        pytest.skip("depsim.runtime.simulate is not there yet")
     return runtime.simulate
 
 
 def compiled_pendulum(tmp_path_factory):
     """examples/pendulum.dep through the real front end and code generator."""
-    try:
-        from depsim.codegen import compile_numpy
-        from depsim.dsl import load_model
-    except ImportError as exc:
-        pytest.skip(f"the compiler is not there yet: {exc}")
+    from depsim.codegen import compile_numpy
+    from depsim.dsl import load_model
     root = os.path.dirname(os.path.dirname(os.path.dirname(__file__)))
     model = load_model(os.path.join(root, "examples", "pendulum.dep"))
     return compile_numpy(model, tmp_path_factory.mktemp("pendulum"))
