@@ -6,7 +6,8 @@ Sign conventions (docs/deployment.md, section 5). A generated module's hinge row
 CONSTRAINT_HINGES names each row's hinge). With
 M qdd = f - Phi_q^T lambda, the row's force on member b is +lambda and on member a -lambda, so
 
-    F_h = (lambda_<h>.x, lambda_<h>.y)     force on member b from member a, world frame (N)
+    F_h = (lambda_<h>.x, lambda_<h>.y[, lambda_<h>.z])   force on member b from member a, world
+                                                       frame (N); a spatial hinge has z
 
 A lock row theta_h - c = 0 (rows "<h>.latch", "<h>.stop", "<h>.stick", "<h>.lock") applies the
 generalized force -J_h^T lambda, i.e. the torque
@@ -30,6 +31,7 @@ class HingeLoad:
 
     force_x: np.ndarray
     force_y: np.ndarray
+    force_z: np.ndarray  # 0 in a planar model
     force: np.ndarray
     torque: np.ndarray
 

@@ -125,7 +125,8 @@ class Result:
     dissipated: np.ndarray  # (n, ND) J, work removed since t = 0
     stats: Stats
     events: tuple[EventRecord, ...]
-    hinge_force: np.ndarray  # (n, NH, 2) N force on member b from member a, world frame
+    hinge_force: np.ndarray  # (n, NH, 3) N force on member b from member a, world frame
+    # (z 0 in a planar model)
     hinge_torque: np.ndarray  # (n, NH) N m lock torque on member b, NaN if free
     peak_loads: dict[str, PeakLoad]  # largest hinge loads over output times and every step
     deployment: Deployment  # latches, deployed or not, dissipated energy (docs/deployment.md)
@@ -144,8 +145,9 @@ class Result:
         frame, N; the multipliers of its reaction rows), its magnitude, and the lock torque
         (N m, NaN while nothing locks the hinge). docs/deployment.md, section 5."""
         forces = self.hinge_force
-        return {h: HingeLoad(forces[:, k, 0], forces[:, k, 1],
-                             np.hypot(forces[:, k, 0], forces[:, k, 1]), self.hinge_torque[:, k])
+        return {h: HingeLoad(forces[:, k, 0], forces[:, k, 1], forces[:, k, 2],
+                             np.hypot(np.hypot(forces[:, k, 0], forces[:, k, 1]),
+                                      forces[:, k, 2]), self.hinge_torque[:, k])
                 for k, h in enumerate(self.hinge_names)}
 
     def output(self, name: str) -> np.ndarray:
@@ -211,11 +213,18 @@ class Result:
         found = self.system_summary()
         if "momentum_x" not in found:
             return ""
-        p, h = (found["momentum_x"], found["momentum_y"]), found["angular_momentum"]
-        change = max(p[0]["largest_change"], p[1]["largest_change"])
-        return (f"  system: momentum ({p[0]['end']:.6g}, {p[1]['end']:.6g}) N*s, angular "
-                f"momentum about its centre of mass {h['end']:.6g} N*m*s; largest change over "
-                f"the run {change:.2g} N*s and {h['largest_change']:.2g} N*m*s")
+        p = [found[f"momentum_{axis}"] for axis in "xyz" if f"momentum_{axis}" in found]
+        h = [found[name] for name in ("angular_momentum", "angular_momentum_x",
+                                      "angular_momentum_y", "angular_momentum_z")
+             if name in found]
+        change = max(value["largest_change"] for value in p)
+        turn = max(value["largest_change"] for value in h)
+        momentum = ", ".join(f"{value['end']:.6g}" for value in p)
+        spin = ", ".join(f"{value['end']:.6g}" for value in h)
+        spin = f"({spin})" if len(h) > 1 else spin
+        return (f"  system: momentum ({momentum}) N*s, angular momentum about its centre of "
+                f"mass {spin} N*m*s; largest change over the run {change:.2g} N*s and "
+                f"{turn:.2g} N*m*s")
 
     def to_json(self, path, system: bool = False) -> None:
         """The `summary(system)` as JSON."""

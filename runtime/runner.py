@@ -277,7 +277,7 @@ def _result(module, r) -> Result:
         energy_names=_names(r.energy_names, r.ne), energy=_array(r.energy, n, r.ne),
         dissipator_names=_names(r.dissipator_names, r.nd),
         dissipated=_array(r.dissipated, n, r.nd), stats=_stats(r.stats), events=_records(module, r),
-        hinge_force=_array(r.hinge_force, n, r.nh, 2),
+        hinge_force=_array(r.hinge_force, n, r.nh, 3),
         hinge_torque=_array(r.hinge_torque, n, r.nh), peak_loads=_peaks(module, r),
         deployment=_deployment(module, r.deployment), report_text=_text(r.report),
         system_names=tuple(getattr(module, "SYSTEM_STATE", ())),

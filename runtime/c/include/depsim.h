@@ -271,7 +271,7 @@ typedef struct dep_result {
     double *dissipated;                              /* n x nd, J since t = 0 */
     char **energy_names;           /* ne: the model's, then "latch.<h>" (compliant springs) */
     char **dissipator_names;       /* nd: the model's, then "friction.<h>", then "latch.<h>" */
-    double *hinge_force;           /* n x nh x 2, N: force on member b from member a (x, y;
+    double *hinge_force;           /* n x nh x 3, N: force on member b from member a (x, y, z;
                                       ground frame), NAN for a hinge without reaction rows */
     double *hinge_torque;          /* n x nh, N m lock torque on member b, NAN if free */
     dep_peak *peak_loads;          /* nh: over the output times and every accepted step */
@@ -319,7 +319,8 @@ double dep_time(const dep_run *run);
 /* A hinge at the current state. */
 typedef struct dep_hinge_state {
     double angle, rate;      /* rad, rad/s */
-    double force_x, force_y; /* N: force on member b from member a, ground frame */
+    double force_x, force_y, force_z; /* N: force on member b from member a, ground frame
+                                         (force_z 0 in a planar model) */
     double torque;           /* N m: lock torque on member b (latched, at a stop, stuck), else 0 */
     int latched;             /* 1 once its latch engaged, else 0 (also without a latch) */
     int has_latch;

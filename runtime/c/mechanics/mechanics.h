@@ -125,7 +125,7 @@ typedef struct dep_settle {
     int impacting_locks[DEP_MAX_ADDED], impacting_hinges[DEP_MAX_ADDED];
     int *stops, *released; /* nh: the hinges at a stop in an impact, those it released */
     int *stuck;            /* nh: 1 for a hinge stuck before an impact */
-    int *force_rows;       /* 2 nh: each hinge's reaction rows (dep_hinge_force_rows) */
+    int *force_rows;       /* DEP_FORCE_ROWS nh: each hinge's reaction rows */
     double *signs;
     int *queue, *starting, queue_capacity; /* starting: g starts at 0 in the new mode */
     dep_constraints cs;

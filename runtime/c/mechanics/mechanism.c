@@ -60,7 +60,7 @@ static int settle_init(dep_mechanism *m, dep_arena *arena)
     for (int k = 0; k < 3; ++k) {
         *per_hinge[k] = dep_bytes(arena, (nh + 1) * sizeof(int));
     }
-    x->force_rows = dep_bytes(arena, (2 * nh + 1) * sizeof *x->force_rows);
+    x->force_rows = dep_bytes(arena, (DEP_FORCE_ROWS * nh + 1) * sizeof *x->force_rows);
     if (x->force_rows != NULL) {
         dep_hinge_force_rows(s->model, x->force_rows);
     }

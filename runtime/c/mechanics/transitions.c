@@ -197,12 +197,16 @@ static void impact_records(settle_context *x, const dep_constraints *cs, double 
         dep_settle_put_number(x, r, "impulse", -(row >= 0 ? x->mu[row] : 0.0));
         dep_settle_put_number(x, r, "impact_energy_loss", i == 0 ? loss : 0.0);
         for (int k = 0; k < model->nh; ++k) { /* (the model's rows come first in cs) */
-            int ix = x->force_rows[2 * k], iy = x->force_rows[2 * k + 1];
+            const int *rows = x->force_rows + DEP_FORCE_ROWS * k;
+            double impulse[DEP_FORCE_ROWS];
+            for (int n = 0; n < DEP_FORCE_ROWS; ++n) {
+                impulse[n] = rows[n] >= 0 ? x->mu[rows[n]] : 0.0;
+            }
             dep_datum *d = dep_datum_add(r->data, &r->n_data, x->data_capacity,
                                          "joint_impulses", model->hinge_names[k]);
             if (d != NULL) {
                 d->kind = DEP_NUMBER;
-                d->number = hypot(ix >= 0 ? x->mu[ix] : 0.0, iy >= 0 ? x->mu[iy] : 0.0);
+                d->number = hypot(hypot(impulse[0], impulse[1]), impulse[2]);
             }
         }
     }

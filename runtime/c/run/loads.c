@@ -21,9 +21,9 @@ int dep_loads_init(dep_loads *loads, const dep_model *model, dep_arena *arena)
     loads->t_force = dep_doubles(arena, nh);
     loads->torque = dep_doubles(arena, nh);
     loads->t_torque = dep_doubles(arena, nh);
-    loads->forces = dep_doubles(arena, 2 * nh);
+    loads->forces = dep_doubles(arena, DEP_FORCE_ROWS * nh);
     loads->torques = dep_doubles(arena, nh);
-    loads->rows = dep_bytes(arena, (2 * nh + 1) * sizeof *loads->rows);
+    loads->rows = dep_bytes(arena, (DEP_FORCE_ROWS * nh + 1) * sizeof *loads->rows);
     loads->redundant = dep_bytes(arena, (nh + 1) * sizeof *loads->redundant);
     if (arena->failed) {
         return DEP_MEMORY_ERROR;
@@ -36,14 +36,12 @@ int dep_loads_init(dep_loads *loads, const dep_model *model, dep_arena *arena)
     return DEP_OK;
 }
 
-/* (F_x, F_y) of each hinge (2 nh) from its rows x, y (the model's), NAN where it has
-   none. */
+/* (F_x, F_y, F_z) of each hinge (DEP_FORCE_ROWS nh) from its rows x, y, z (the model's),
+   NAN where it has none, F_z 0 in a planar model. */
 void dep_hinge_forces(const dep_loads *loads, const double *lam, double *forces)
 {
     for (int k = 0; k < loads->nh; ++k) {
-        int ix = loads->rows[2 * k], iy = loads->rows[2 * k + 1];
-        forces[2 * k] = ix >= 0 && iy >= 0 ? lam[ix] : NAN;
-        forces[2 * k + 1] = ix >= 0 && iy >= 0 ? lam[iy] : NAN;
+        dep_hinge_force(loads->rows + DEP_FORCE_ROWS * k, lam, forces + DEP_FORCE_ROWS * k);
     }
 }
 
@@ -51,7 +49,8 @@ void dep_hinge_forces(const dep_loads *loads, const double *lam, double *forces)
 void dep_loads_observe(dep_loads *loads, double t, const double *forces, const double *torques)
 {
     for (int k = 0; k < loads->nh; ++k) {
-        double magnitude = hypot(forces[2 * k], forces[2 * k + 1]), size = fabs(torques[k]);
+        const double *f = forces + DEP_FORCE_ROWS * k;
+        double magnitude = hypot(hypot(f[0], f[1]), f[2]), size = fabs(torques[k]);
         if (isfinite(magnitude) && magnitude > loads->force[k]) {
             loads->force[k] = magnitude;
             loads->t_force[k] = t;

@@ -85,9 +85,10 @@ int dep_recorder_init(dep_recorder *rec, const dep_system *system, dep_mechanism
     rec->t = dep_doubles(arena, rows);
     rec->outputs = dep_doubles(arena, rows * (size_t)m->nout);
     rec->work = dep_doubles(arena, rows * (size_t)system->nd);
-    rec->force = dep_doubles(arena, rows * 2 * (size_t)m->nh);
+    rec->force = dep_doubles(arena, rows * DEP_FORCE_ROWS * (size_t)m->nh);
     rec->torque = dep_doubles(arena, rows * (size_t)m->nh);
-    rec->force_rows = dep_bytes(arena, (2 * (size_t)m->nh + 1) * sizeof *rec->force_rows);
+    rec->force_rows = dep_bytes(arena, (DEP_FORCE_ROWS * (size_t)m->nh + 1)
+                                       * sizeof *rec->force_rows);
     if (rec->force_rows != NULL) {
         dep_hinge_force_rows(m, rec->force_rows);
     }
@@ -239,10 +240,8 @@ int dep_record(dep_recorder *rec, double t, const double *q, const double *qd, c
     rec->t[row] = t;
     memcpy(rec->work + row * (size_t)s->nd, work, (size_t)s->nd * sizeof(double));
     for (int k = 0; k < m->nh; ++k) { /* (the model's rows come first in cs) */
-        int ix = rec->force_rows[2 * k], iy = rec->force_rows[2 * k + 1];
-        double *force = rec->force + (row * (size_t)m->nh + (size_t)k) * 2;
-        force[0] = ix >= 0 && iy >= 0 ? lam[ix] : NAN;
-        force[1] = ix >= 0 && iy >= 0 ? lam[iy] : NAN;
+        dep_hinge_force(rec->force_rows + DEP_FORCE_ROWS * k, lam,
+                        rec->force + (row * (size_t)m->nh + (size_t)k) * DEP_FORCE_ROWS);
     }
     double *torques = rec->torque + row * (size_t)m->nh;
     if (rec->mechanism != NULL) {
@@ -375,7 +374,7 @@ int dep_recorder_result(dep_recorder *rec, dep_result *result)
     result->outputs = copy_doubles(rec->outputs, n * (size_t)m->nout, &failed);
     result->energy = kept_doubles(rec, rec->energy, n * (size_t)result->ne, &failed);
     result->dissipated = copy_doubles(rec->work, n * (size_t)result->nd, &failed);
-    result->hinge_force = copy_doubles(rec->force, n * 2 * (size_t)m->nh, &failed);
+    result->hinge_force = copy_doubles(rec->force, n * DEP_FORCE_ROWS * (size_t)m->nh, &failed);
     result->hinge_torque = copy_doubles(rec->torque, n * (size_t)m->nh, &failed);
     result->energy_names = copy_names(rec->system->energy_names, result->ne, &failed);
     result->dissipator_names = copy_names(rec->system->dissipator_names, result->nd, &failed);

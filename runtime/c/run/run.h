@@ -58,7 +58,7 @@ typedef struct dep_recorder {
     double *times;
     double *t, *q, *qd, *hinge_angles, *hinge_rates, *outputs, *residuals, *energy, *work;
     double *force, *torque;   /* rows x nh x 2, rows x nh: the hinges' loads */
-    int *force_rows;          /* 2 nh: each hinge's reaction rows (dep_hinge_force_rows) */
+    int *force_rows;          /* DEP_FORCE_ROWS nh: each hinge's reaction rows */
     dep_mechanism *mechanism; /* the hinges' lock torques; NULL: the lock rows' alone */
     int n_names, names_capacity;
     char **names;

@@ -112,8 +112,9 @@ static int peak_loads(const dep_model *m, const dep_loads *loads, dep_result *r)
     for (int k = 0; k < m->nh; ++k) {
         dep_peak p = {0.0, NAN, 0.0, NAN, !loads->redundant[k]};
         for (int i = 0; i < r->n; ++i) {
-            const double *f = r->hinge_force + ((size_t)i * (size_t)r->nh + (size_t)k) * 2;
-            double force = hypot(f[0], f[1]);
+            const double *f = r->hinge_force
+                              + ((size_t)i * (size_t)r->nh + (size_t)k) * DEP_FORCE_ROWS;
+            double force = hypot(hypot(f[0], f[1]), f[2]);
             observe(&p, r->times[i], force, r->hinge_torque[(size_t)i * (size_t)r->nh + (size_t)k]);
         }
         if (!(p.force >= loads->force[k])) { /* ties keep the output time */

@@ -108,19 +108,31 @@ int dep_hinge_sliding(const dep_hinge_mechanics *h)
     return h->has_static && !dep_hinge_locked(h) && !h->stuck;
 }
 
-/* Each hinge's rows x and y among the model's constraint rows (constraint_hinges: a hinge's
-   rows in component order), -1 where a hinge has none. */
+/* Each hinge's rows x, y (and z) among the model's constraint rows (constraint_hinges: a
+   hinge's force rows in component order), -1 where a hinge has none. */
 void dep_hinge_force_rows(const dep_model *model, int *rows)
 {
-    for (int k = 0; k < 2 * model->nh; ++k) {
+    for (int k = 0; k < DEP_FORCE_ROWS * model->nh; ++k) {
         rows[k] = -1;
     }
     for (int i = 0; i < model->nc; ++i) {
         int k = model->constraint_hinges[i];
-        if (k >= 0) {
-            rows[2 * k + (rows[2 * k] >= 0)] = i;
+        int n = 0;
+        while (k >= 0 && n < DEP_FORCE_ROWS && rows[DEP_FORCE_ROWS * k + n] >= 0) {
+            ++n;
+        }
+        if (k >= 0 && n < DEP_FORCE_ROWS) {
+            rows[DEP_FORCE_ROWS * k + n] = i;
         }
     }
+}
+
+void dep_hinge_force(const int *rows, const double *lam, double *force)
+{
+    int present = rows[0] >= 0 && rows[1] >= 0;
+    force[0] = present ? lam[rows[0]] : NAN;
+    force[1] = present ? lam[rows[1]] : NAN;
+    force[2] = !present ? NAN : rows[2] >= 0 ? lam[rows[2]] : 0.0;
 }
 
 const char *dep_joint_kind(const dep_model *model, int row)

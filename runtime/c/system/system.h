@@ -56,8 +56,14 @@ int dep_hinge_locked(const dep_hinge_mechanics *h);   /* by a latch, a stop or a
 int dep_hinge_sliding(const dep_hinge_mechanics *h);  /* stick-slip, slipping */
 /* "hinge", "slider" or "joint": the kind of the joint whose model row `row` is (messages). */
 const char *dep_joint_kind(const dep_model *model, int row);
-/* Each hinge's rows x and y (2 nh) among the model's rows: its reaction force; -1: none. */
+/* A hinge's reaction force rows: x, y and, in a spatial model, z. */
+#define DEP_FORCE_ROWS 3
+/* Each hinge's rows x, y, z (DEP_FORCE_ROWS nh) among the model's rows: its reaction force;
+   -1: none (z in a planar model). */
 void dep_hinge_force_rows(const dep_model *model, int *rows);
+/* A hinge's force (DEP_FORCE_ROWS) from its rows (dep_hinge_force_rows) and the multipliers:
+   NAN without rows, F_z 0 in a planar model. */
+void dep_hinge_force(const int *rows, const double *lam, double *force);
 
 /* ---- system.c ----------------------------------------------------------------------------- */
 

@@ -123,8 +123,9 @@ void dep_hinge_states(dep_run *run, dep_hinge_state *out)
     }
     dep_hinge_forces(&run->loads, s->lam, run->loads.forces);
     for (int k = 0; k < nh; ++k) {
-        out[k].force_x = run->loads.forces[2 * k];
-        out[k].force_y = run->loads.forces[2 * k + 1];
+        out[k].force_x = run->loads.forces[DEP_FORCE_ROWS * k];
+        out[k].force_y = run->loads.forces[DEP_FORCE_ROWS * k + 1];
+        out[k].force_z = run->loads.forces[DEP_FORCE_ROWS * k + 2];
     }
     dep_lock_torques(m, &run->cs, s->lam, run->loads.torques);
     for (int k = 0; k < nh; ++k) {
