@@ -7,6 +7,7 @@ Equations (docs/generated-module.md, docs/method.md section 1):
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import sympy
@@ -21,6 +22,10 @@ from .expr import to_sympy
 from .kinematics import Coordinates, Kinematics
 from .layout import build_coordinates
 from .loads import derive_loads
+from .spatial import SYSTEM_STATE as SPATIAL_SYSTEM_STATE
+from .spatial import (SpatialKinematics, spatial_coordinate_scales, spatial_mass_matrix,
+                      spatial_rows)
+from .spatial_assembly import assemble_spatial, hinge_turns
 from .system import SYSTEM_STATE, OutputScope, RowIndex, run_value_names
 
 
@@ -65,7 +70,8 @@ class SymbolicSystem:
     output_names: tuple[str, ...]
     outputs: ImmutableMatrix  # (NOUT, 1), of q, qd, t, p, lam and w
     w: tuple[sympy.Symbol, ...]  # NW run values an output may use (the core supplies them)
-    system_state: ImmutableMatrix  # (NSYS, 1): SYSTEM_STATE of q, qd, p
+    system_state: ImmutableMatrix  # (NSYS, 1): system_state_names of q, qd, p
+    system_state_names: tuple[str, ...]  # SYSTEM_STATE (planar) or spatial.SYSTEM_STATE
     run_value_names: tuple[str, ...]  # their names (RUN_VALUES)
     energy_names: tuple[str, ...]
     energy: ImmutableMatrix  # (NE, 1), J
@@ -147,17 +153,36 @@ def acceleration_rhs(vector: ImmutableMatrix, vector_q: ImmutableSparseMatrix,
 def derive(model: ir.Model) -> SymbolicSystem:
     """Derive the symbolic system of a checked model (parameters stay symbols)."""
     symbols, beams = build_coordinates(model)
-    assembly = assemble(model, Kinematics(model, symbols, beams))
-    kin = Kinematics(model, symbols, beams, assembly.beam_angles)
+    if model.spatial:
+        placing = SpatialKinematics(model, symbols)
+        assembly = assemble_spatial(model, placing)
+        kin = SpatialKinematics(model, symbols, hinge_turns(model, placing, assembly))
+        rows = [_Row(*row) for row in spatial_rows(model, kin)]
+        mass = spatial_mass_matrix(model, kin)
+        scales = column(spatial_coordinate_scales(model, kin))
+        state_names = SPATIAL_SYSTEM_STATE
+    else:
+        assembly = assemble(model, Kinematics(model, symbols, beams))
+        kin = Kinematics(model, symbols, beams, assembly.beam_angles)
+        rows = _constraints(model, kin, assembly.at_start)
+        mass = _mass_matrix(model, kin)
+        scales = _coordinate_scales(model, kin)
+        state_names = SYSTEM_STATE
     q, qd, t = symbols.q, column(symbols.qd), symbols.t
-    rows = _constraints(model, kin, assembly.at_start)
     phi = column(row.residual for row in rows)
     phi_q = jacobian(phi, q)
     lam, entries, phi_q_lam = _transpose_times(phi_q)
     phi_t = phi.diff(t)
     thetas = column(kin.hinge_theta(i) for i in range(len(model.hinges)))
-    hinge_jacobian = jacobian(thetas, q)
-    mass = _mass_matrix(model, kin)
+    if model.spatial:
+        parts = [kin.hinge_derivatives(i) for i in range(len(model.hinges))]
+        hinge_jacobian = ImmutableSparseMatrix(len(parts), len(q), {
+            (i, j): value for i, (gradient, _) in enumerate(parts)
+            for j, value in gradient.items()})
+        hinge_gamma = column(gamma for _, gamma in parts)
+    else:
+        hinge_jacobian = jacobian(thetas, q)
+        hinge_gamma = acceleration_rhs(thetas, hinge_jacobian, symbols)
     loads = derive_loads(model, kin, mass, list(thetas), hinge_jacobian)
     run_values = run_value_names(model, loads.dissipator_names)
     w = tuple(sympy.Symbol(f"@w{i}") for i in range(len(run_values)))
@@ -165,7 +190,7 @@ def derive(model: ir.Model) -> SymbolicSystem:
                         RowIndex({(row.joint, row.name.rsplit(".", 1)[1]): i
                                   for i, row in enumerate(rows)}),
                         loads.energies, loads.dissipator_names, loads.springs)
-    return SymbolicSystem(
+    system = SymbolicSystem(
         name=model.name, coordinates=symbols.names, q=q, qd=symbols.qd, p=symbols.p, t=t,
         mass_matrix=mass, mass_pattern=_pattern(mass),
         constraint_names=tuple(row.name for row in rows),
@@ -179,12 +204,13 @@ def derive(model: ir.Model) -> SymbolicSystem:
         slider_names=tuple(s.name for s in model.sliders),
         hinge_angles=thetas, hinge_rates=times(hinge_jacobian, symbols.qd),
         hinge_jacobian=hinge_jacobian, hinge_jacobian_pattern=_pattern(hinge_jacobian),
-        hinge_gamma=acceleration_rhs(thetas, hinge_jacobian, symbols),
+        hinge_gamma=hinge_gamma,
         hinge_properties=_hinge_properties(model, kin),
-        coordinate_scales=_coordinate_scales(model, kin),
+        coordinate_scales=scales,
         output_names=tuple(o.name for o in model.outputs),
         outputs=column(_output(o, scope) for o in model.outputs), w=w,
-        system_state=column(scope.system_quantity(name, None) for name in SYSTEM_STATE),
+        system_state=column(scope.system_quantity(name, None) for name in state_names),
+        system_state_names=state_names,
         run_value_names=run_values,
         energy_names=loads.energy_names, energy=column(loads.energies),
         dissipator_names=loads.dissipator_names, dissipation=column(loads.dissipation),
@@ -198,6 +224,22 @@ def derive(model: ir.Model) -> SymbolicSystem:
         limit_bounds=column(kin.const(limit.bound) if limit.bound is not None else 0
                             for limit in model.limits),
     )
+    if model.spatial:  # put the named constant geometry back (codegen/spatial.py)
+        kin.constants.update(placing.constants)
+        system = _substituted(system, kin.resolved())
+    return system
+
+
+def _substituted(system: SymbolicSystem, constants: dict) -> SymbolicSystem:
+    """`system` with the symbols of `constants` replaced by their values in every field."""
+    def replace(value):
+        if isinstance(value, sympy.Basic):
+            return value.xreplace(constants)
+        if isinstance(value, tuple):
+            return tuple(replace(item) for item in value)
+        return value
+    return dataclasses.replace(system, **{field.name: replace(getattr(system, field.name))
+                                          for field in dataclasses.fields(system)})
 
 
 def _coordinate_scales(model: ir.Model, kin: Kinematics) -> ImmutableMatrix:

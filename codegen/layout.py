@@ -1,6 +1,7 @@
 """The coordinate layout: (x, y, phi) per rigid body in body order, (x, y) per particle in
-particle order, then each beam's coordinates in beam order; and the ordered symbols q, q', p,
-t."""
+particle order, then each beam's coordinates in beam order (a spatial model: (x, y, z, R11,
+..., R33) per body, (x, y, z) per particle; codegen/spatial.py); and the ordered symbols q,
+q', p, t."""
 
 from __future__ import annotations
 
@@ -13,6 +14,8 @@ from depsim.dsl import ir
 from .errors import CodegenError
 from .expr import ConstantScope, to_sympy
 from .kinematics import Coordinates
+from .spatial import BODY_COORDINATES as SPATIAL_BODY
+from .spatial import PARTICLE_COORDINATES as SPATIAL_PARTICLE
 
 RIGID_COORDINATES = ("x", "y", "phi")
 PARTICLE_COORDINATES = ("x", "y")
@@ -31,8 +34,10 @@ def build_coordinates(model: ir.Model) -> tuple[Coordinates, tuple[Any, ...]]:
 
     p = tuple(_symbol(param.name) for param in model.params)
     t = _symbol("t")
-    names = [f"{body.name}.{c}" for body in model.bodies for c in RIGID_COORDINATES]
-    names += [f"{p.name}.{c}" for p in model.particles for c in PARTICLE_COORDINATES]
+    rigid, particle = (SPATIAL_BODY, SPATIAL_PARTICLE) if model.spatial \
+        else (RIGID_COORDINATES, PARTICLE_COORDINATES)
+    names = [f"{body.name}.{c}" for body in model.bodies for c in rigid]
+    names += [f"{p.name}.{c}" for p in model.particles for c in particle]
     q = [_symbol(name) for name in names]
     beam_q, elements = [], []
     scope = ConstantScope(p, t)

@@ -17,6 +17,7 @@ import sympy
 from depsim.dsl import ir
 
 from .kinematics import Kinematics
+from .spatial import spatial_gravity
 
 
 @dataclass(frozen=True)
@@ -230,6 +231,8 @@ def _potentials(model: ir.Model, kin: Kinematics,
 
 def _gravity(model: ir.Model, kin: Kinematics) -> sympy.Expr:
     """V = -sum m g . r over rigid bodies, plus each beam's integral over its mass."""
+    if model.spatial:
+        return spatial_gravity(model, kin)
     gx, gy = (kin.const(g) for g in model.gravity)
     energy = sympy.Integer(0)
     for index, body in enumerate(model.bodies):

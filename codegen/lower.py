@@ -20,7 +20,6 @@ from depsim.runtime import interface
 from .assembly import Group
 from .derive import SymbolicSystem, column
 from .printing import LoweringError, SlotPrinter
-from .system import SYSTEM_STATE
 
 PrinterFactory = Callable[..., SlotPrinter]  # (slots, temporaries) -> printer
 
@@ -362,7 +361,7 @@ def lower_module(model: ir.Model, system: SymbolicSystem, printer: PrinterFactor
         "MASS_COLS": tuple(j for _, j in system.mass_pattern),
         "FIXED_PARAMETERS": tuple(f.name for f in model.structural),
         "FIXED_VALUES": tuple(f.value for f in model.structural),
-        "RUN_VALUES": system.run_value_names, "SYSTEM_STATE": SYSTEM_STATE,
+        "RUN_VALUES": system.run_value_names, "SYSTEM_STATE": system.system_state_names,
         **_limit_tables(model),
     }
     tables = tuple(TableView(t.constant, t.field, t.ctype, values[t.constant])

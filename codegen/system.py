@@ -114,42 +114,56 @@ class OutputScope:
         if kind == "spring":
             law = self.springs[index]
             return {"force": law.force, "length": law.length, "rate": law.rate}[quantity]
-        joint = (self.kin.model.hinges if kind == "hinge" else self.kin.model.welds)[index]
+        joint = {"hinge": self.kin.model.hinges, "weld": self.kin.model.welds,
+                 "ball": self.kin.model.balls}[kind][index]
         if quantity == "torque":
             if kind == "hinge":
                 return self.w[index]
             row = self.rows.rows.get((joint.name, "angle"))
             return sympy.Integer(0) if row is None else -self.lam[row]
-        fx = self.lam[self.rows.rows[(joint.name, "x")]]
-        fy = self.lam[self.rows.rows[(joint.name, "y")]]
-        return {"force_x": fx, "force_y": fy, "force": sympy.sqrt(fx**2 + fy**2)}[quantity]
+        axes = "xyz" if self.kin.model.spatial else "xy"
+        force = {f"force_{axis}": self.lam[self.rows.rows[(joint.name, axis)]] for axis in axes}
+        force["force"] = sympy.sqrt(sympy.Add(*(value**2 for value in force.values())))
+        return force[quantity]
 
     # the system
     def _rigid(self):
+        """(translations, rotations): rigid_modes of a planar model, or of a spatial one."""
         if self._modes is None:
-            self._modes = rigid_modes(self.kin)
+            if self.kin.model.spatial:
+                self._modes = self.kin.rigid_modes()
+            else:
+                tx, ty, rot = rigid_modes(self.kin)
+                self._modes = ([tx, ty], [rot])
         return self._modes
 
     def system_quantity(self, quantity: str, point: ir.Attachment | None) -> sympy.Expr:
-        tx, ty, rot = self._rigid()
+        translations, rotations = self._rigid()
         q, qd, M = self.kin.symbols.q, self.kin.symbols.qd, self.mass
-        mass = _weighted(M, tx, tx)
+        axes = "xyz"[:len(translations)]
+        mass = _weighted(M, translations[0], translations[0])
         nh, nd = len(self.kin.model.hinges), len(self.dissipators)
         totals = dict(zip(RUN_TOTALS, self.w[nh + nd:]))
         if quantity == "mass":
             return mass
-        if quantity in ("com_x", "com_y"):
-            return _weighted(M, tx if quantity == "com_x" else ty, q) / mass
-        momentum = {"x": _weighted(M, tx, qd), "y": _weighted(M, ty, qd)}
-        if quantity in ("momentum_x", "momentum_y"):
-            return momentum[quantity[-1]]
-        if quantity in ("com_vx", "com_vy"):
+        centre = {axis: _weighted(M, mode, q) / mass for axis, mode in zip(axes, translations)}
+        momentum = {axis: _weighted(M, mode, qd) for axis, mode in zip(axes, translations)}
+        if quantity.startswith("com_v"):
             return momentum[quantity[-1]] / mass
-        if quantity == "angular_momentum":
+        if quantity.startswith("com_"):
+            return centre[quantity[-1]]
+        if quantity.startswith("momentum_"):
+            return momentum[quantity[-1]]
+        if quantity == "angular_momentum":  # planar: about z, through a point or the centre
             about = (self.kin.point_position(point.member, point.point) if point is not None
-                     else (_weighted(M, tx, q) / mass, _weighted(M, ty, q) / mass))
-            return (_weighted(M, rot, qd) - (about[0] * momentum["y"]
-                                             - about[1] * momentum["x"]))
+                     else (centre["x"], centre["y"]))
+            return (_weighted(M, rotations[0], qd) - (about[0] * momentum["y"]
+                                                      - about[1] * momentum["x"]))
+        if quantity.startswith("angular_momentum_"):  # spatial: about the centre of mass
+            k = "xyz".index(quantity[-1])
+            i, j = (k + 1) % 3, (k + 2) % 3
+            moment = centre["xyz"[i]] * momentum["xyz"[j]] - centre["xyz"[j]] * momentum["xyz"[i]]
+            return _weighted(M, rotations[k], qd) - moment
         kinetic, potential = self.energies[0], sympy.Add(*self.energies[1:]) \
             + totals["energy.latch"]
         if quantity in ("kinetic_energy", "potential_energy", "energy"):

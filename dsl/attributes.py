@@ -49,10 +49,14 @@ _LINEAR_DAMPING = Dim(mass=1, time=-1)  # N*s/m
 _FORCE = Dim(mass=1, length=1, time=-2)
 
 SPECS: dict[str, tuple[AttrSpec, ...]] = {
+    # A spatial model's `inertia` is a vector of principal moments, its `orientation` and
+    # `principal_axes` products of turns (read by dedicated code: dsl/members.py).
     "bar": (AttrSpec("length", LENGTH, True, "positive"), AttrSpec("mass", MASS, True, "positive"),
-            AttrSpec("inertia", Dim(mass=1, length=2), True, "positive")),
+            AttrSpec("inertia", Dim(mass=1, length=2), True, "positive"),
+            AttrSpec("orientation", None), AttrSpec("principal_axes", None)),
     "body": (AttrSpec("mass", MASS, True, "positive"),
-             AttrSpec("inertia", Dim(mass=1, length=2), True, "positive")),
+             AttrSpec("inertia", Dim(mass=1, length=2), True, "positive"),
+             AttrSpec("orientation", None), AttrSpec("principal_axes", None)),
     "particle": (AttrSpec("mass", MASS, True, "positive"),),
     "beam": (AttrSpec("length", LENGTH, True, "positive"),
              AttrSpec("EI", Dim(mass=1, length=3, time=-2), True, "positive"),
@@ -65,6 +69,8 @@ SPECS: dict[str, tuple[AttrSpec, ...]] = {
     # depsim.codegen.interface_header), and docs/language.md shows this table (tests compare).
     "hinge": (
         AttrSpec("angle", None, meaning="the hinge angle, above"),
+        AttrSpec("axis", None, meaning="spatial models: the axis, a direction in member A's "
+                                       "frame (required there)"),
         AttrSpec("stiffness", _STIFFNESS, False, "nonnegative",
                  meaning="spring: torque on theta is `preload - stiffness * theta`"),
         AttrSpec("preload", TORQUE, meaning="spring torque at theta = 0"),
@@ -92,6 +98,7 @@ SPECS: dict[str, tuple[AttrSpec, ...]] = {
     "weld": (AttrSpec("angle", ANGLE, meaning="the relative angle it holds, angle(B) - "
                                               "angle(A); default 0"),),
     "free": (),
+    "ball": (),
     # A point-to-point spring-damper (ir.Spring); `acts` is read by dedicated code.
     "spring": (AttrSpec("stiffness", _LINEAR_STIFFNESS, False, "nonnegative",
                         meaning="force per length change: `-stiffness (L - free_length)`"),
@@ -116,7 +123,9 @@ _POINTS_ALLOWED = ("bar", "body", "ground")
 # What to say when a block that takes no attributes is given one.
 _NO_ATTRIBUTES = {"free": "a free joint takes no attributes: give its initial position and "
                           "motion in `initial` (NAME.x, NAME.y, NAME.angle, NAME.vx, NAME.vy, "
-                          "NAME.omega)"}
+                          "NAME.omega)",
+                  "ball": "a ball joint takes no attributes: give its initial angular velocity "
+                          "in `initial` (NAME.wx, NAME.wy, NAME.wz)"}
 
 # The hinge attributes the integrator applies itself (Coulomb friction, latches, hard stops,
 # stick-slip): the columns of a generated model's hinge_properties(p), in column order.
@@ -173,6 +182,7 @@ def read_block(block: Block | None, kind: str, owner: str, owner_span: Span,
 
 def _add_hint(spec: AttrSpec) -> str:
     examples = {"elements": "elements = 4", "axis": "axis = (1, 0)",
+                "orientation": "orientation = rz(30 deg)",
                 "angles": "angles = h1 - h2", "acts": "acts = push"}
     if spec.dim is None:
         return f"add: {examples[spec.name]}"
@@ -214,7 +224,9 @@ class ParamVector:
 class AttributeReader:
     """Resolves attribute values: dimension checks, parameter entries, range checks."""
 
-    def __init__(self, resolver: ExprResolver, vector: ParamVector) -> None:
+    def __init__(self, resolver: ExprResolver, vector: ParamVector,
+                 spatial: bool = False) -> None:
+        self.spatial = spatial  # a spatial model: vectors have three components
         self.resolver = resolver
         self.vector = vector
         self.report: Reporter = resolver.report

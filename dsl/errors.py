@@ -80,6 +80,8 @@ CODES: dict[str, str] = {
     "E055": "bad structural parameter",
     "E056": "loop variable reuses a name",
     "E057": "statement that cannot be repeated",
+    "E060": "a construct of the other kind of model (planar or spatial)",
+    "E061": "bad orientation",
     # warnings
     "W001": "member has no joint path to the ground",
     "W002": "parameter never used",

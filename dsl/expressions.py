@@ -85,6 +85,7 @@ class ExprResolver:
         self.report = report
         self.params: dict[str, ParamInfo] = {}
         self.used_params: set[str] = set()
+        self.spatial = False  # a spatial model: its members' state has z (dsl/state_refs.py)
 
     def resolve(self, node: AstExpr, context: Context) -> Typed | None:
         method = getattr(self, "_resolve_" + type(node).__name__)
@@ -159,7 +160,7 @@ class ExprResolver:
         elif symbol.kind == "system":
             message = "the system has no value of its own"
             hint = "write one of its quantities, e.g. system.momentum_x, system.kinetic_energy"
-        elif symbol.kind in ("weld", "spring", "free"):
+        elif symbol.kind in ("weld", "spring", "free", "ball"):
             message = f"{symbol.describe()} has no value of its own"
             hint = {"weld": f"its loads: {name}.force_x, {name}.force_y, {name}.torque",
                     "spring": f"its force, length and rate: {name}.force, {name}.length, "
@@ -288,6 +289,11 @@ class ExprResolver:
         if context is not Context.OUTPUT:
             self.report.error("E018", "angular_momentum is a state quantity; it can be used "
                               "only in outputs", node.span)
+            return None
+        if self.spatial:
+            self.report.error("E060", "angular_momentum(MEMBER.POINT) is a planar model's: a "
+                              "spatial model has system.angular_momentum_x, _y, _z about the "
+                              "centre of mass", node.span)
             return None
         if len(node.args) != 1:
             self.report.error("E017", f"angular_momentum takes 1 argument, got "

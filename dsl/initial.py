@@ -26,8 +26,21 @@ _VALUES: dict[tuple[str, str], tuple[str, Dim]] = {
     ("free", "angle"): ("initial_angle", ANGLE), ("free", "vx"): ("initial_vx", _VELOCITY),
     ("free", "vy"): ("initial_vy", _VELOCITY), ("free", "omega"): ("initial_omega", _RATE),
 }
+# A spatial model's free joints and ball joints (ir.SPATIAL_FREE_VALUES, ir.TURN_VALUES).
+_SPATIAL_VALUES = {key: value for key, value in _VALUES.items() if key[0] in ("hinge",)}
+_SPATIAL_VALUES.update({
+    ("free", "x"): ("initial_x", LENGTH), ("free", "y"): ("initial_y", LENGTH),
+    ("free", "z"): ("initial_z", LENGTH), ("free", "vx"): ("initial_vx", _VELOCITY),
+    ("free", "vy"): ("initial_vy", _VELOCITY), ("free", "vz"): ("initial_vz", _VELOCITY),
+    ("free", "wx"): ("initial_wx", _RATE), ("free", "wy"): ("initial_wy", _RATE),
+    ("free", "wz"): ("initial_wz", _RATE), ("ball", "wx"): ("initial_wx", _RATE),
+    ("ball", "wy"): ("initial_wy", _RATE), ("ball", "wz"): ("initial_wz", _RATE),
+})
 _HOW = {"hinge": "{n} = ... or {n}.rate = ...", "slider": "{n} = ... or {n}.rate = ...",
-        "free": "{n}.x, {n}.y, {n}.angle, {n}.vx, {n}.vy or {n}.omega = ..."}
+        "free": "{n}.x, {n}.y, {n}.angle, {n}.vx, {n}.vy or {n}.omega = ...",
+        "ball": "{n}.wx, {n}.wy or {n}.wz = ... (its orientation is its members')"}
+_SPATIAL_HOW = {**_HOW, "free": "{n}.x, {n}.y, {n}.z, {n}.vx, {n}.vy, {n}.vz, {n}.wx, {n}.wy "
+                                "or {n}.wz = ... (its orientation is its members')"}
 
 
 class InitialValues:
@@ -67,16 +80,17 @@ class InitialValues:
             return
         if symbol.kind not in _HOW:
             report.error("E045", f"{symbol.describe()} has no initial value: initial values "
-                         "are given for hinges, sliders and free joints", item.name.span,
+                         "are given for hinges, sliders, free and ball joints", item.name.span,
                          hint=_not_a_joint_hint(symbol))
             return
         prop = item.sub.text if item.sub else ""
-        if (symbol.kind, prop) not in _VALUES:
+        values, how = (_SPATIAL_VALUES, _SPATIAL_HOW) if reader.spatial else (_VALUES, _HOW)
+        if (symbol.kind, prop) not in values:
             report.error("E019", f"{symbol.describe()} has no initial value "
                          f"'{prop or name}'", (item.sub or item.name).span,
-                         hint="write " + _HOW[symbol.kind].format(n=name))
+                         hint="write " + how[symbol.kind].format(n=name))
             return
-        suffix, dim = _VALUES[(symbol.kind, prop)]
+        suffix, dim = values[(symbol.kind, prop)]
         key = (name, suffix)
         if key in self.spans:
             report.error("E022", f"initial value '{name}{'.' + prop if prop else ''}' is "

@@ -126,6 +126,8 @@ class _Expressions:
     def __init__(self, reader: AttributeReader) -> None:
         self.resolver = reader.resolver
         self.expect = reader.expect
+        self.spatial = reader.spatial
+        self.report = reader.report
 
     def enter(self, entry, expr, dim, span):
         return expr

@@ -229,12 +229,24 @@ class Member:
 
 @dataclass(frozen=True, slots=True)
 class Point:
-    """A named point in body coordinates (m), relative to the centre of mass."""
+    """A named point in body coordinates (m), relative to the centre of mass (z: a spatial
+    model's third coordinate, 0 in a planar one)."""
 
     name: str
     x: Expr
     y: Expr
     span: Span
+    z: Expr = Num(0.0)
+
+
+@dataclass(frozen=True, slots=True)
+class Turn:
+    """One factor of an orientation: a right-handed rotation by `angle` (rad) about the axis
+    `axis` ("x", "y" or "z") of the frame the factors before it reached. An orientation is a
+    tuple of turns, R = R_1 R_2 ... (`orientation = rz(30 deg) * rx(10 deg)`)."""
+
+    axis: str
+    angle: Expr
 
 
 @dataclass(frozen=True, slots=True)
@@ -244,15 +256,22 @@ class Ground:
 
 @dataclass(frozen=True, slots=True)
 class Body:
-    """A planar rigid body. kind "bar" (points a, b from length) or "body"."""
+    """A rigid body. kind "bar" (points a, b from length) or "body". Planar: `inertia` about
+    the centre of mass. Spatial: `principal`, the principal moments of inertia about the
+    centre of mass along the axes of the frame `principal_axes` (given in the body frame;
+    the body frame itself when empty), and `orientation`, the body frame's orientation in
+    the world when every hinge is at its zero (docs/language.md, Spatial models)."""
 
     name: str
     kind: str
     mass: Expr  # kg
-    inertia: Expr  # kg*m^2 about the centre of mass
+    inertia: Expr | None  # kg*m^2 about the centre of mass; None in a spatial model
     length: Expr | None  # m, bars only
     points: tuple[Point, ...]
     span: Span
+    principal: tuple[Expr, Expr, Expr] | None = None  # kg*m^2, spatial models only
+    principal_axes: tuple[Turn, ...] = ()
+    orientation: tuple[Turn, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
@@ -318,6 +337,7 @@ class Hinge:
     span: Span
     held: int = 0  # the assembly holds: 1 its initial angle (given), 2 its rate, 3 both
     release: Expr | None = None  # s: held locked (a hold-down) from t = 0 until this time
+    axis: tuple[Expr, Expr, Expr] | None = None  # spatial: direction in member a's frame
 
 
 @dataclass(frozen=True, slots=True)
@@ -352,6 +372,13 @@ class Weld:
 # The initial values of a free joint, in the order of its tree values: (suffix, rate suffix).
 FREE_VALUES = (("initial_x", "initial_vx"), ("initial_y", "initial_vy"),
                ("initial_angle", "initial_omega"))
+# In a spatial model: the position and velocity of b's point from a's, in a's frame, then
+# three turns about a's axes x, y, z (always 0 at t = 0: the members' orientations place b)
+# whose rates are b's angular velocity relative to a in a's frame.
+TURN_VALUES = (("initial_turn_x", "initial_wx"), ("initial_turn_y", "initial_wy"),
+               ("initial_turn_z", "initial_wz"))
+SPATIAL_FREE_VALUES = (("initial_x", "initial_vx"), ("initial_y", "initial_vy"),
+                       ("initial_z", "initial_vz")) + TURN_VALUES
 
 
 @dataclass(frozen=True, slots=True)
@@ -367,8 +394,23 @@ class FreeJoint:
     a: Attachment
     b: Attachment
     initial: tuple[Expr, ...]  # x, vx, y, vy, angle, omega (m, m/s, rad, rad/s)
-    held: tuple[int, int, int]
+    held: tuple[int, ...]
     turns: bool
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class Ball:
+    """A spherical joint of a spatial model: point a of member a and point b of member b
+    coincide (rows x, y, z); b turns freely about it. At t = 0 the members' orientations place
+    b; `initial` holds three (value, rate) pairs in TURN_VALUES order: the values 0, the
+    rates b's angular velocity relative to a in a's frame (rad/s). `held` as a free joint's."""
+
+    name: str
+    a: Attachment
+    b: Attachment
+    initial: tuple[Expr, ...]
+    held: tuple[int, ...]
     span: Span
 
 
@@ -455,6 +497,7 @@ class JointKind(Enum):
     SLIDER = "slider"
     WELD = "weld"
     FREE = "free"
+    BALL = "ball"
 
 
 @dataclass(frozen=True, slots=True)
@@ -521,7 +564,7 @@ class Model:
     source_sha256: str
     params: tuple[Param, ...]
     derived: tuple[DerivedName, ...]
-    gravity: tuple[Expr, Expr]  # m/s^2; (Num(0), Num(0)) when the model has none
+    gravity: tuple[Expr, ...]  # m/s^2, (x, y) or spatial (x, y, z); zeros when it has none
     ground: Ground
     bodies: tuple[Body, ...]
     beams: tuple[Beam, ...]
@@ -540,3 +583,5 @@ class Model:
     welds: tuple[Weld, ...] = ()
     free_joints: tuple[FreeJoint, ...] = ()
     springs: tuple[Spring, ...] = ()
+    spatial: bool = False  # a 3-D model (`model NAME spatial`)
+    balls: tuple[Ball, ...] = ()

@@ -69,9 +69,13 @@ def resolve_hinge(statement: JointStmt, symbols: SymbolTable, reader: AttributeR
     specs = {spec.name: spec for spec in SPECS["hinge"]}
     fields: dict = {spec: None for spec in specs if spec != "angle"}
     angle = hinge_angle(statement, None, ends, symbols, reader) if ends else None
+    axis_ok = True
     for key, item in found.items():  # in written order, so entries follow the file
         if key == "angle":
             angle = hinge_angle(statement, item, ends, symbols, reader) if ends else None
+        elif key == "axis":
+            fields["axis"] = read_axis(item, name, reader)
+            axis_ok = fields["axis"] is not None
         else:
             fields[key] = reader.scalar(item, specs[key], f"{name}.{key}")
     for key, spec in specs.items():  # attributes with a default get a parameter entry
@@ -84,11 +88,41 @@ def resolve_hinge(statement: JointStmt, symbols: SymbolTable, reader: AttributeR
     _check_hinge_limits(name, found, fields, reader)
     if ends is not None and not _torque_free(statement, ends, found, reader):
         return None
-    if ends is None or angle is None or any(fields[k] is None for k in found if k != "angle"):
+    if reader.spatial and "axis" not in found:
+        reader.report.error("E021", f"{owner} of a spatial model is missing the attribute "
+                            "'axis'", statement.name.span,
+                            hint="add: axis = (0, 0, 1), the axis's direction in the frame of "
+                                 f"{statement.a.member.text}")
+        return None
+    if ends is None or angle is None or not axis_ok \
+            or any(fields[k] is None for k in found if k not in ("angle", "axis")):
         return None
     fields.update(name=name, a=ends[0][1], b=ends[1][1], sign=angle[0], offset=angle[1],
                   span=statement.span)
     return fields
+
+
+def read_axis(item, name: str, reader: AttributeReader) -> tuple[Expr, ...] | None:
+    """A spatial hinge's axis: a direction vector (any length but zero); None after an error
+    (E060 in a planar model, whose hinges all turn about z)."""
+    if not reader.spatial:
+        reader.report.error("E060", "a hinge of a planar model turns about z: it takes no axis",
+                            item.name.span, hint="declare the model spatial (`model NAME "
+                                                 "spatial`) for hinges about other axes")
+        return None
+    if not isinstance(item.value, VectorLit):
+        reader.report.error("E023", "axis takes a direction vector, e.g. axis = (0, 0, 1)",
+                            item.value.span)
+        return None
+    axis = read_vector(reader, item.value, NONE, "axis",
+                       tuple(f"{name}.axis_{k}" for k in "xyz"))
+    if axis is None:
+        return None
+    size = binary("+", binary("+", call("abs", (axis[0],)), call("abs", (axis[1],))),
+                  call("abs", (axis[2],)))
+    if not reader.check_limit(Limit(f"{name}.axis", size, "nonzero", "", item.value.span)):
+        return None
+    return axis
 
 
 def particle_end(ends) -> Symbol | None:
@@ -141,7 +175,7 @@ def resolve_slider(statement: JointStmt, symbols: SymbolTable, reader: Attribute
                             item.value.span)
     elif item is not None:
         axis = read_vector(reader, item.value, NONE, "axis",
-                           (f"{name}.axis_x", f"{name}.axis_y"))
+                           (f"{name}.axis_x", f"{name}.axis_y", f"{name}.axis_z"))
         if axis is not None:
             size = binary("+", call("abs", (axis[0],)), call("abs", (axis[1],)))
             if not reader.check_limit(Limit(f"{name}.axis", size, "nonzero", "",
@@ -168,6 +202,12 @@ def resolve_weld(statement: JointStmt, symbols: SymbolTable, reader: AttributeRe
     ends = _joint_ends(statement, symbols, reader)
     angle: Expr | None = Num(0.0)
     particle = particle_end(ends) if ends else None
+    if "angle" in found and reader.spatial:
+        reader.report.error("E060", f"weld '{name}' of a spatial model holds its members as "
+                            "their orientations place them: it takes no angle",
+                            found["angle"].name.span,
+                            hint="give the members' `orientation` instead")
+        return None
     if "angle" in found:
         if particle is not None:
             reader.report.error("E048", f"weld '{name}' joins {particle.describe()}, which "
@@ -192,6 +232,23 @@ def resolve_free(statement: JointStmt, symbols: SymbolTable, reader: AttributeRe
         return None
     return dict(name=name, a=ends[0][1], b=ends[1][1], turns=particle_end(ends) is None,
                 span=statement.span)
+
+
+def resolve_ball(statement: JointStmt, symbols: SymbolTable, reader: AttributeReader
+                 ) -> dict | None:
+    """A ball joint's fields except its initial values; None when it has errors."""
+    name = statement.name.text
+    read_block(statement.block, "ball", f"ball joint '{name}'", statement.name.span,
+               reader.report)
+    if not reader.spatial:
+        reader.report.error("E060", "a ball joint needs a spatial model: in a plane it is a "
+                            "hinge", statement.span, hint="use a hinge, or declare the model "
+                                                          "spatial (`model NAME spatial`)")
+        return None
+    ends = _joint_ends(statement, symbols, reader)
+    if ends is None:
+        return None
+    return dict(name=name, a=ends[0][1], b=ends[1][1], span=statement.span)
 
 
 def resolve_spring(statement: JointStmt, symbols: SymbolTable, reader: AttributeReader

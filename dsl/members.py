@@ -9,10 +9,10 @@ from .attributes import SPECS, AttributeReader, read_block
 from .errors import Reporter, join_names
 from .evaluate import Typed, binary
 from .expressions import Context
-from .ir import Beam, Body, Dim, Expr, Ground, Model, Num, Particle, Point, Span
-from .syntax import (AttributeItem, GravityStmt, GroundStmt, MemberStmt, NumberLit, PointItem,
-                     VectorLit)
-from .units import LENGTH, dim_mul, parse_unit
+from .ir import Beam, Body, Dim, Expr, Ground, Limit, Model, Num, Particle, Point, Span, Turn
+from .syntax import (AttributeItem, BinaryOp, CallExpr, GravityStmt, GroundStmt, MemberStmt,
+                     NumberLit, PointItem, VectorLit)
+from .units import ANGLE, LENGTH, dim_mul, parse_unit
 
 # Beam elements drive the size of the symbolic system: derivation takes about a minute at
 # 2 x 128 elements and grows faster than the square of the count.
@@ -21,11 +21,17 @@ MAX_TOTAL_ELEMENTS = 200  # all beams of a model together
 
 
 def read_vector(reader: AttributeReader, vector: VectorLit, dim: Dim, what: str,
-                entries: tuple[str, str]) -> tuple[Expr, Expr] | None:
-    """Both components of `(x, y) UNIT` in SI, as parameter entries `entries`."""
+                entries: tuple[str, ...]) -> tuple[Expr, ...] | None:
+    """The components of `(x, y) UNIT` (`(x, y, z)` in a spatial model) in SI, as parameter
+    entries `entries` (one name per axis x, y, z; the first two in a planar model)."""
+    components = vector.components
+    if len(components) != (3 if reader.spatial else 2):
+        reader.report.error("E023", f"{what} of a spatial model has three components "
+                            "(x, y, z)", vector.span, hint="e.g. (0, 0, -9.81)")
+        return None
     factor, unit_dim = parse_unit(vector.unit) if vector.unit else (1.0, Dim())
     result = []
-    for component, entry, axis in zip((vector.x, vector.y), entries, "xy"):
+    for component, entry, axis in zip(components, entries, "xyz"):
         typed = reader.resolver.resolve(component, Context.CONSTANT)
         if typed is None:
             result.append(None)
@@ -37,12 +43,12 @@ def read_vector(reader: AttributeReader, vector: VectorLit, dim: Dim, what: str,
         result.append(reader.enter(entry, typed.expr, dim, component.span))
     if None in result:
         return None
-    return result[0], result[1]
+    return tuple(result)
 
 
-def resolve_gravity(statement: GravityStmt, reader: AttributeReader) -> tuple[Expr, Expr] | None:
+def resolve_gravity(statement: GravityStmt, reader: AttributeReader) -> tuple[Expr, ...] | None:
     return read_vector(reader, statement.value, Dim(length=1, time=-2), "gravity",
-                       ("gravity.x", "gravity.y"))
+                       ("gravity.x", "gravity.y", "gravity.z"))
 
 
 def resolve_points(reader: AttributeReader, owner: str, items,
@@ -54,10 +60,10 @@ def resolve_points(reader: AttributeReader, owner: str, items,
             continue
         seen.add(item.name.text)
         name = item.name.text
-        xy = read_vector(reader, item.value, LENGTH, f"point '{name}'",
-                         (f"{owner}.{name}.local_x", f"{owner}.{name}.local_y"))
-        if xy is not None:
-            points.append(Point(name, xy[0], xy[1], item.span))
+        xyz = read_vector(reader, item.value, LENGTH, f"point '{name}'",
+                          tuple(f"{owner}.{name}.local_{axis}" for axis in "xyz"))
+        if xyz is not None:
+            points.append(Point(name, xyz[0], xyz[1], item.span, *xyz[2:]))
     return points
 
 
@@ -65,7 +71,7 @@ def resolve_ground(statement: GroundStmt | None, reader: AttributeReader,
                    filename: str) -> Ground:
     """The ground's points: `origin` at (0, 0), then the declared ones."""
     span = statement.span if statement else Span(filename, 1, 1, 1, 1)
-    points = [Point("origin", Num(0.0), Num(0.0), span)]
+    points = [Point("origin", Num(0.0), Num(0.0), span)]  # z = 0
     if statement is not None:
         read_block(statement.block, "ground", "the ground", statement.span, reader.report)
         points += resolve_points(reader, "ground", statement.block.items, ("origin",))
@@ -78,7 +84,7 @@ def _scalars(statement: MemberStmt, reader: AttributeReader,
     specs = {spec.name: spec for spec in SPECS[statement.kind]}
     values: dict[str, Expr | None] = {}
     for key, item in found.items():  # in written order, so entries follow the file
-        if specs[key].dim is not None:
+        if specs[key].dim is not None and not (reader.spatial and key == "inertia"):
             values[key] = reader.scalar(item, specs[key], f"{name}.{key}")
     return values
 
@@ -99,16 +105,101 @@ def resolve_member(statement: MemberStmt, reader: AttributeReader
         return None if mass is None else Particle(name, mass, statement.span)
     builtin = ("a", "b") if statement.kind == "bar" else ()
     points = resolve_points(reader, name, statement.block.items, builtin)
-    required = [s.name for s in SPECS[statement.kind] if s.required]
-    if any(values.get(r) is None for r in required):
+    spatial = read_spatial_body(statement, found, reader) if reader.spatial \
+        else _planar_only(statement, found, reader)
+    required = [s.name for s in SPECS[statement.kind] if s.required and s.dim is not None]
+    if spatial is None or any(values.get(r) is None for r in required if r != "inertia"):
+        return None
+    if not reader.spatial and values.get("inertia") is None:
         return None
     length = values.get("length")
     if length is not None:  # a bar: ends a and b at -L/2 and +L/2 on its x axis
         ends = [Point("a", binary("*", Num(-0.5), length), Num(0.0), statement.name.span),
                 Point("b", binary("*", Num(0.5), length), Num(0.0), statement.name.span)]
         points = ends + points
-    return Body(name, statement.kind, values["mass"], values["inertia"], length,
-                tuple(points), statement.span)
+    return Body(name, statement.kind, values["mass"], values.get("inertia"), length,
+                tuple(points), statement.span, **spatial)
+
+
+def _planar_only(statement: MemberStmt, found: dict[str, AttributeItem],
+                 reader: AttributeReader) -> dict | None:
+    """{} for a planar body; None after E060 for an attribute of spatial models."""
+    for key in SPATIAL_ATTRIBUTES:
+        if key in found:
+            reader.report.error("E060", f"'{key}' is an attribute of bodies in spatial models",
+                                found[key].name.span,
+                                hint="declare the model spatial (`model NAME spatial`) for "
+                                     "3-D bodies; a planar body turns in the x-y plane only")
+    return None if any(key in found for key in SPATIAL_ATTRIBUTES) else {}
+
+
+SPATIAL_ATTRIBUTES = ("orientation", "principal_axes")
+_TURNS = {"rx": "x", "ry": "y", "rz": "z"}
+
+
+def read_spatial_body(statement: MemberStmt, found: dict[str, AttributeItem],
+                      reader: AttributeReader) -> dict | None:
+    """A spatial body's principal moments (`inertia = (Ixx, Iyy, Izz) kg*m^2`, checked to be
+    those of a body: positive, each smaller than the sum of the other two), `principal_axes`
+    and `orientation` (products of turns); None when they have errors (reported)."""
+    name = statement.name.text
+    item = found.get("inertia")
+    if item is None:
+        return None  # reported as missing
+    if not isinstance(item.value, VectorLit):
+        reader.report.error("E023", f"inertia of a spatial body is its three principal "
+                            "moments about the centre of mass, (Ixx, Iyy, Izz)", item.value.span,
+                            hint="e.g. inertia = (0.2, 0.3, 0.4) kg*m^2 (along the body's axes, "
+                                 "or along principal_axes)")
+        return None
+    moments = read_vector(reader, item.value, Dim(mass=1, length=2), "inertia",
+                          tuple(f"{name}.inertia_{axis}" for axis in "xyz"))
+    if moments is None:
+        return None
+    ok = True
+    for k, axis in enumerate("xyz"):
+        others = binary("+", moments[(k + 1) % 3], moments[(k + 2) % 3])
+        ok &= reader.check_limit(Limit(f"{name}.inertia_{axis}", moments[k], "below", "kg*m^2",
+                                       item.value.span, others,
+                                       f"the sum of the other two principal moments of "
+                                       f"'{name}'"))
+        ok &= reader.check_limit(Limit(f"{name}.inertia_{axis}", moments[k], "positive",
+                                       "kg*m^2", item.value.span))
+    axes = read_turns(found.get("principal_axes"), f"{name}.principal_axes", reader)
+    orientation = read_turns(found.get("orientation"), f"{name}.orientation", reader)
+    if not ok or axes is None or orientation is None:
+        return None
+    return dict(principal=moments, principal_axes=axes, orientation=orientation)
+
+
+def read_turns(item: AttributeItem | None, entry: str, reader: AttributeReader
+               ) -> tuple[Turn, ...] | None:
+    """`rz(30 deg) * rx(10 deg)`: turns about the named axes of the frame reached so far, in
+    the order written (R = Rz Rx); () when not given; None after E061."""
+    if item is None:
+        return ()
+    factors, node = [], item.value
+    while isinstance(node, BinaryOp) and node.op == "*":
+        factors.insert(0, node.right)
+        node = node.left
+    factors.insert(0, node)
+    turns = []
+    for k, factor in enumerate(factors):
+        if not (isinstance(factor, CallExpr) and factor.func.text in _TURNS
+                and len(factor.args) == 1):
+            reader.report.error("E061", "an orientation is a product of turns about named "
+                                "axes: rx(angle), ry(angle), rz(angle)", factor.span,
+                                hint="e.g. orientation = rz(30 deg) * rx(-10 deg): 30 deg "
+                                     "about z, then -10 deg about the turned x")
+            return None
+        typed = reader.quantity(factor.args[0], ANGLE, f"the angle of {factor.func.text}")
+        if typed is None:
+            return None
+        angle = reader.enter(f"{entry}.{k + 1}", typed.expr, ANGLE, factor.args[0].span)
+        if angle is None:
+            return None
+        turns.append(Turn(_TURNS[factor.func.text], angle))
+    return tuple(turns)
 
 
 def _beam(statement: MemberStmt, values: dict[str, Expr | None],

@@ -24,12 +24,12 @@ BUILT_IN = ("ground", "system")
 # What each kind is called in messages.
 KIND_WORDS = {
     "param": "parameter", "bar": "bar", "body": "body", "beam": "beam", "particle": "particle",
-    "hinge": "hinge", "slider": "slider", "weld": "weld", "free": "free joint",
+    "hinge": "hinge", "slider": "slider", "weld": "weld", "free": "free joint", "ball": "ball joint",
     "spring": "spring", "cable": "cable", "output": "output", "input": "input",
     "ground": "the ground", "system": "the system",
 }
 MEMBER_KINDS = ("bar", "body", "beam", "particle", "ground")
-JOINT_KINDS = ("hinge", "slider", "weld", "free")  # connectors that are joints
+JOINT_KINDS = ("hinge", "slider", "weld", "free", "ball")  # connectors that are joints
 # Every rigid member (and a particle) has the point `cm`, its centre of mass; a bar and a
 # beam have their ends `a` and `b`.
 BUILT_IN_POINTS = {"bar": ("a", "b", "cm"), "body": ("cm",), "particle": ("cm",),

@@ -85,6 +85,8 @@ class _Expander:
         self.structural = structural
         self.report = report
         self.instances = 0
+        # a spatial model's vectors have three components (x, y, z)
+        self.spatial = any(isinstance(s, ModelStmt) and s.spatial for s in source.statements)
         self.declared: dict[str, Span] = {}  # every declared name as written (its base)
         for node in walk(source.statements):
             if isinstance(node, _DECLARING):
@@ -285,6 +287,17 @@ class _Expander:
         return self._node(pick.values[k - 1], env)
 
     def _expand_TupleLit(self, values: TupleLit, env: _Env) -> VectorLit:
+        if self.spatial and len(values.items) == 3:
+            x, y, z = (self._node(item, env) for item in values.items)
+            return VectorLit(x, y, values.unit, env.span(values.unit_span)
+                             if values.unit_span else None, env.span(values.span), z)
+        if self.spatial:
+            self.report.error("E023", f"a vector of a spatial model has three components "
+                              f"(x, y, z), got {len(values.items)} values",
+                              env.span(values.span),
+                              hint="a list of more values is the value of an array parameter")
+            return VectorLit(values.items[0], values.items[1], values.unit, values.unit_span,
+                             env.span(values.span))
         self.report.error("E023", f"a vector has two components (x, y), got "
                           f"{len(values.items)} values", env.span(values.span),
                           hint="a list of more values is the value of an array parameter")

@@ -16,11 +16,11 @@ from .errors import Reporter, at, file_span, sort_key
 from .evaluate import EvaluationError, Typed, evaluate, param_indices
 from .expressions import Context, ExprResolver, ParamInfo
 from .initial import InitialValues
-from .ir import (FREE_VALUES, Beam, Body, Cable, Expr, FreeJoint, Ground, Hinge, InputKind,
+from .ir import (FREE_VALUES, SPATIAL_FREE_VALUES, TURN_VALUES, Ball, Beam, Body, Cable, Expr, FreeJoint, Ground, Hinge, InputKind,
                  JointKind, MemberKind, Model, Num, Output, Param, ParamKind, Particle,
                  Simulation, Slider, StructuralParam)
-from .joints import (resolve_cable, resolve_free, resolve_hinge, resolve_slider, resolve_spring,
-                     resolve_weld)
+from .joints import (resolve_ball, resolve_cable, resolve_free, resolve_hinge, resolve_slider,
+                     resolve_spring, resolve_weld)
 from .members import check_element_total, resolve_gravity, resolve_ground, resolve_member
 from .names import collect_symbols
 from .repeat import expand
@@ -32,6 +32,8 @@ from .units import si_text
 
 DEFAULT_SIMULATION = Simulation(t_end=10.0, tol=1e-8, dt_out=0.01)
 _SINGLE = (ModelStmt, GravityStmt, GroundStmt, SimulateStmt)  # at most one of each
+# Elements of planar models that spatial models do not have yet, as messages name them.
+_PLANAR_ONLY = {"beam": "flexible beams", "slider": "sliders"}
 
 
 def resolve(source: SourceFile, text: str, report: Reporter) -> Model | None:
@@ -55,14 +57,18 @@ class _ModelBuilder:
         self.symbols = collect_symbols(source, report)
         self.resolver = ExprResolver(self.symbols, report)
         self.vector = ParamVector()
-        self.reader = AttributeReader(self.resolver, self.vector)
-        self.gravity: tuple[Expr, Expr] | None = (Num(0.0), Num(0.0))
+        models = [s for s in source.statements if isinstance(s, ModelStmt)]
+        self.spatial = bool(models) and models[0].spatial
+        self.resolver.spatial = self.spatial
+        self.reader = AttributeReader(self.resolver, self.vector, self.spatial)
+        self.gravity: tuple[Expr, ...] | None = (Num(0.0),) * (3 if self.spatial else 2)
         self.ground: Ground | None = None
         self.members: list[Body | Beam | Particle | None] = []
         self.hinges: list[dict | None] = []
         self.sliders: list[dict | None] = []
         self.welds: list = []
         self.free_joints: list[dict | None] = []
+        self.balls: list[dict | None] = []
         self.springs: list = []
         self.cables: list[Cable | None] = []
         self.outputs: list[Output | None] = []
@@ -152,17 +158,26 @@ class _ModelBuilder:
         self.ground = resolve_ground(statement, self.reader, self.source.filename)
 
     def _read_MemberStmt(self, statement: MemberStmt) -> None:
-        if self._declares(statement):
+        if self._declares(statement) and self._in_this_space(statement):
             self.members.append(resolve_member(statement, self.reader))
 
     def _read_JointStmt(self, statement: JointStmt) -> None:
-        if not self._declares(statement):
+        if not self._declares(statement) or not self._in_this_space(statement):
             return
         read = {"hinge": (self.hinges, resolve_hinge), "slider": (self.sliders, resolve_slider),
                 "weld": (self.welds, resolve_weld), "free": (self.free_joints, resolve_free),
-                "spring": (self.springs, resolve_spring)}
+                "ball": (self.balls, resolve_ball), "spring": (self.springs, resolve_spring)}
         found, resolve_kind = read[statement.kind]
         found.append(resolve_kind(statement, self.symbols, self.reader))
+
+    def _in_this_space(self, statement: MemberStmt | JointStmt) -> bool:
+        """False after E060 for an element spatial models do not have yet (beams, sliders)."""
+        if self.spatial and statement.kind in _PLANAR_ONLY:
+            self.report.error("E060", f"a spatial model cannot have {_PLANAR_ONLY[statement.kind]}"
+                              " yet", statement.span,
+                              hint="model it in a planar model, or with bodies and hinges")
+            return False
+        return True
 
     def _read_CableStmt(self, statement: CableStmt) -> None:
         if self._declares(statement):
@@ -216,6 +231,10 @@ class _ModelBuilder:
             statement.name.text, typed.expr, typed.dim, si_text(typed.dim), statement.span))
 
     def _read_InputStmt(self, statement: InputStmt) -> None:
+        if self.spatial and statement.kind == "force":
+            self.report.error("E060", "a spatial model cannot have force inputs yet",
+                              statement.span, hint="drive a hinge by a torque input")
+            return
         if self._declares(statement):
             self.inputs.append(resolve_input(statement, self.symbols, self.reader))
 
@@ -230,7 +249,7 @@ class _ModelBuilder:
 
     def _model(self) -> Model:
         parts = (self.members, self.hinges, self.sliders, self.cables, self.outputs,
-                 self.inputs, self.welds, self.free_joints, self.springs)
+                 self.inputs, self.welds, self.free_joints, self.springs, self.balls)
         assert self.gravity is not None and all(None not in p for p in parts), \
             "an element failed without an error"
         hinges = tuple(Hinge(**h, initial_angle=self._initial(h["name"], "initial_angle"),
@@ -242,13 +261,14 @@ class _ModelBuilder:
                                held=self._held(s["name"], "initial_position"))
                         for s in self.sliders)
         free_joints = tuple(self._free_joint(f) for f in self.free_joints)
+        balls = tuple(Ball(**fields, **self._turns(fields["name"])) for fields in self.balls)
         bodies = tuple(m for m in self.members if isinstance(m, Body))
         beams = tuple(m for m in self.members if isinstance(m, Beam))
         particles = tuple(m for m in self.members if isinstance(m, Particle))
         members = [(s.member, s.describe(), s.span)
                    for s in self.symbols.of_kind("bar", "body", "beam", "particle")]
         placements, loops = assemble(hinges, sliders, members, self.report, tuple(self.welds),
-                                     free_joints)
+                                     free_joints, balls)
         self._check_loop_sliders(sliders, loops)
         self._check_particle_hinges(hinges)
         if not members:
@@ -266,7 +286,8 @@ class _ModelBuilder:
             loop_joints=loops, warnings=tuple(sorted(self.report.warnings(), key=sort_key)),
             limits=tuple(self.reader.limits), inputs=tuple(self.inputs),
             structural=self.structural, particles=particles, welds=tuple(self.welds),
-            free_joints=free_joints, springs=tuple(self.springs))
+            free_joints=free_joints, springs=tuple(self.springs), spatial=self.spatial,
+            balls=balls)
 
     def _initial(self, joint: str, suffix: str) -> Expr:
         value = self.initial.get(joint, suffix)
@@ -278,9 +299,15 @@ class _ModelBuilder:
         return ((self.initial.get(joint, value_suffix) is not None)
                 | 2 * (self.initial.get(joint, rate_suffix) is not None))
 
+    def _turns(self, name: str) -> dict:
+        """A ball joint's initial values: its turns' (0) and their rates (ir.TURN_VALUES)."""
+        return self._free_values(name, TURN_VALUES)
+
     def _free_joint(self, fields: dict) -> FreeJoint:
         """The free joint with its initial values (0 where not given) and what was given."""
         name = fields["name"]
+        if self.spatial:
+            return FreeJoint(**fields, **self._free_values(name, SPATIAL_FREE_VALUES))
         initial, held = [], []
         for value, rate in FREE_VALUES:
             initial += [self._initial(name, value), self._initial(name, rate)]
@@ -294,6 +321,13 @@ class _ModelBuilder:
                         self.initial.span_of(name, suffix),
                         hint=f"give {name}.x, {name}.y, {name}.vx and {name}.vy")
         return FreeJoint(**fields, initial=tuple(initial), held=tuple(held))
+
+    def _free_values(self, name: str, values) -> dict:
+        initial, held = [], []
+        for value, rate in values:
+            initial += [self._initial(name, value), self._initial(name, rate)]
+            held.append(self._held(name, value, rate))
+        return dict(initial=tuple(initial), held=tuple(held))
 
     def _check_particle_hinges(self, hinges: tuple[Hinge, ...]) -> None:
         """A hinge at a particle carries no torque: no cable and no torque input on it."""

@@ -38,6 +38,35 @@ SYSTEM_QUANTITIES = {
     "dissipated_impacts": ENERGY,
 }
 POINT_AXES = {"x": LENGTH, "y": LENGTH, "vx": VELOCITY, "vy": VELOCITY}
+# A spatial model's joints carry a 3-D reaction force (their rows x, y, z); a hinge its lock
+# torque about its axis.
+SPATIAL_REACTIONS = {"force_x": FORCE, "force_y": FORCE, "force_z": FORCE, "force": FORCE}
+SPATIAL_LOADS = {"hinge": {**SPATIAL_REACTIONS, "torque": TORQUE}, "weld": SPATIAL_REACTIONS,
+                 "ball": SPATIAL_REACTIONS, "spring": LOADS["spring"]}
+# A spatial model's: positions and velocities have z; a body's orientation is its rotation
+# matrix R (body frame to world, entries R11 ... R33) and its angular velocity (wx, wy, wz)
+# is in the world frame.
+RATE = Dim(angle=1, time=-1)
+SPATIAL_POINT_AXES = {**POINT_AXES, "z": LENGTH, "vz": VELOCITY}
+SPATIAL_PARTICLE_COORDS = SPATIAL_POINT_AXES
+SPATIAL_BODY_COORDS = {**SPATIAL_POINT_AXES, "wx": RATE, "wy": RATE, "wz": RATE,
+                       **{f"R{i}{j}": NONE for i in "123" for j in "123"}}
+_MOMENTUM = Dim(mass=1, length=1, time=-1)
+SPATIAL_SYSTEM_QUANTITIES = {
+    **{name: dim for name, dim in SYSTEM_QUANTITIES.items() if name != "angular_momentum"},
+    "com_z": LENGTH, "com_vz": VELOCITY, "momentum_z": _MOMENTUM,
+    "angular_momentum_x": ANGULAR_MOMENTUM, "angular_momentum_y": ANGULAR_MOMENTUM,
+    "angular_momentum_z": ANGULAR_MOMENTUM,
+}
+
+
+def _tables(resolver) -> tuple[dict, dict, dict, dict]:
+    """(body coordinates, particle coordinates, point axes, system quantities) of the
+    model's kind, planar or spatial."""
+    if resolver.spatial:
+        return (SPATIAL_BODY_COORDS, SPATIAL_PARTICLE_COORDS, SPATIAL_POINT_AXES,
+                SPATIAL_SYSTEM_QUANTITIES)
+    return BODY_COORDS, PARTICLE_COORDS, POINT_AXES, SYSTEM_QUANTITIES
 BEAM_QUANTITIES = {"chord": ANGLE, "tip_deflection": LENGTH}
 JOINT_RATES = {"hinge": Dim(angle=1, time=-1), "slider": VELOCITY}
 
@@ -61,7 +90,7 @@ def resolve_dotted(resolver: ExprResolver, node: NameRef, in_output: bool) -> Ty
         return None
     if symbol.kind == "system":
         return _system_quantity(resolver, node)
-    if symbol.kind in ("hinge", "slider", "weld", "spring", "free"):
+    if symbol.kind in ("hinge", "slider", "weld", "spring", "free", "ball"):
         return _joint_property(resolver, symbol, node)
     if len(node.parts) == 2:
         return _member_quantity(resolver, symbol, node.parts[1], node)
@@ -75,7 +104,7 @@ def resolve_dotted(resolver: ExprResolver, node: NameRef, in_output: bool) -> Ty
 def _joint_property(resolver, symbol, node: NameRef):
     """`h.rate`, `s.rate`; a connector's loads (`h.force_x`, `w.torque`, `k.force`)."""
     prop = node.parts[1]
-    loads = LOADS.get(symbol.kind, {})
+    loads = (SPATIAL_LOADS if resolver.spatial else LOADS).get(symbol.kind, {})
     if len(node.parts) == 2 and prop.text == "rate" and symbol.kind in ("hinge", "slider"):
         expr = HingeAngle(symbol.index, True) if symbol.kind == "hinge" \
             else SliderPosition(symbol.index, True)
@@ -95,22 +124,25 @@ def _joint_property(resolver, symbol, node: NameRef):
 def _system_quantity(resolver, node: NameRef):
     """`system.momentum_x`, `system.kinetic_energy`, ...: the whole system's."""
     prop = node.parts[1]
-    if len(node.parts) == 2 and prop.text in SYSTEM_QUANTITIES:
-        return Typed(SystemQuantity(prop.text), SYSTEM_QUANTITIES[prop.text])
+    quantities = _tables(resolver)[3]
+    if len(node.parts) == 2 and prop.text in quantities:
+        return Typed(SystemQuantity(prop.text), quantities[prop.text])
     what = ".".join(p.text for p in node.parts[1:])
+    about = "" if resolver.spatial else \
+        "; the angular momentum about a point: angular_momentum(MEMBER.POINT)"
     resolver.report.error("E019", f"the system has no property '{what}'", prop.span,
-                          hint=did_you_mean(prop.text, SYSTEM_QUANTITIES)
-                          or f"its properties: {join_names(SYSTEM_QUANTITIES)}; the angular "
-                             "momentum about a point: angular_momentum(MEMBER.POINT)")
+                          hint=did_you_mean(prop.text, quantities)
+                          or f"its properties: {join_names(quantities)}{about}")
     return None
 
 
 def _member_quantity(resolver, symbol, prop: Ident, node: NameRef):
     points = resolver.symbols.points.get(symbol.name, {})
-    if symbol.kind in ("bar", "body") and prop.text in BODY_COORDS:
-        return Typed(BodyCoord(symbol.index, prop.text), BODY_COORDS[prop.text])
-    if symbol.kind == "particle" and prop.text in PARTICLE_COORDS:
-        return Typed(PointCoord(symbol.member, "cm", prop.text), PARTICLE_COORDS[prop.text])
+    body_coords, particle_coords, _, _ = _tables(resolver)
+    if symbol.kind in ("bar", "body") and prop.text in body_coords:
+        return Typed(BodyCoord(symbol.index, prop.text), body_coords[prop.text])
+    if symbol.kind == "particle" and prop.text in particle_coords:
+        return Typed(PointCoord(symbol.member, "cm", prop.text), particle_coords[prop.text])
     if symbol.kind == "particle" and prop.text in ("phi", "omega"):
         resolver.report.error("E019", f"{symbol.describe()} does not turn: it has no "
                               f"'{prop.text}'", prop.span, hint="a particle has x, y, vx, vy")
@@ -121,18 +153,19 @@ def _member_quantity(resolver, symbol, prop: Ident, node: NameRef):
         resolver.report.error("E019", f"'{node.dotted}' is a point, not a number", node.span,
                               hint=f"write {node.dotted}.x, .y, .vx or .vy")
         return None
-    known = _properties(symbol.kind) + list(points)
+    known = _properties(symbol.kind, resolver) + list(points)
     resolver.report.error("E019", f"{symbol.describe()} has no property '{prop.text}'",
                           prop.span, hint=did_you_mean(prop.text, known)
                           or f"its properties: {join_names(known)}")
     return None
 
 
-def _properties(kind: str) -> list[str]:
+def _properties(kind: str, resolver) -> list[str]:
+    body_coords, particle_coords, _, _ = _tables(resolver)
     if kind in ("bar", "body"):
-        return list(BODY_COORDS)
+        return list(body_coords)
     if kind == "particle":
-        return list(PARTICLE_COORDS)
+        return list(particle_coords)
     return list(BEAM_QUANTITIES) if kind == "beam" else []
 
 
@@ -170,9 +203,10 @@ def _point_coordinate(resolver, symbol, point: Ident, axis: Ident):
                               point.span, hint=did_you_mean(point.text, points)
                               or f"its points: {join_names(points)}")
         return None
-    if axis.text not in POINT_AXES:
+    axes = _tables(resolver)[2]
+    if axis.text not in axes:
         resolver.report.error("E019", f"a point has no property '{axis.text}'", axis.span,
-                              hint=did_you_mean(axis.text, POINT_AXES)
-                              or "a point has x, y, vx and vy")
+                              hint=did_you_mean(axis.text, axes)
+                              or f"a point has {join_names(axes)}")
         return None
-    return Typed(PointCoord(symbol.member, point.text, axis.text), POINT_AXES[axis.text])
+    return Typed(PointCoord(symbol.member, point.text, axis.text), axes[axis.text])

@@ -16,15 +16,18 @@ from .ir import Span
 
 # The words that start statements, and all keywords of the grammar.
 STATEMENT_WORDS = ("model", "param", "gravity", "ground", "bar", "body", "beam", "particle",
-                   "hinge", "slider", "weld", "free", "spring", "cable", "initial", "simulate",
-                   "output", "input")
+                   "hinge", "slider", "weld", "free", "ball", "spring", "cable", "initial",
+                   "simulate", "output", "input")
 KEYWORDS = frozenset(STATEMENT_WORDS + ("joins", "to", "point", "for"))
 # keywords the syntax tree keeps
-KIND_WORDS = ("bar", "body", "beam", "particle", "hinge", "slider", "weld", "free", "spring")
+KIND_WORDS = ("bar", "body", "beam", "particle", "hinge", "slider", "weld", "free", "ball",
+              "spring")
 # Words of the input statement only (`input T torque on h1`): keywords there, names elsewhere.
 INPUT_WORDS = ("torque", "force", "on")
 # The word of the for statement only (`for i in 1..N`): a keyword there, a name elsewhere.
 FOR_WORDS = ("in",)
+# The word of the model statement only (`model arm spatial`): a keyword there, a name elsewhere.
+MODEL_WORDS = ("spatial",)
 
 
 @dataclass(frozen=True, slots=True)
@@ -106,13 +109,19 @@ AstExpr = NumberLit | NameRef | UnaryOp | BinaryOp | CallExpr | Quantity | ListP
 
 @dataclass(frozen=True, slots=True)
 class VectorLit:
-    """`(x, y)` with an optional unit applying to both components."""
+    """`(x, y)`, or `(x, y, z)` in a spatial model, with an optional unit applying to every
+    component."""
 
     x: AstExpr
     y: AstExpr
     unit: str | None
     unit_span: Span | None
     span: Span
+    z: AstExpr | None = None  # a spatial model's third component (dsl/repeat.py)
+
+    @property
+    def components(self) -> tuple[AstExpr, ...]:
+        return (self.x, self.y) if self.z is None else (self.x, self.y, self.z)
 
 
 @dataclass(frozen=True, slots=True)
@@ -168,6 +177,7 @@ class ModelStmt:
     name: Ident
     description: str
     span: Span
+    spatial: bool = False  # `model NAME spatial "..."`: a 3-D model
 
 
 @dataclass(frozen=True, slots=True)
@@ -209,7 +219,7 @@ class JointStmt:
     """A connector between two member points: a joint (hinge, slider, weld, free) or a
     point-to-point spring-damper."""
 
-    kind: str  # "hinge", "slider", "weld", "free" or "spring"
+    kind: str  # "hinge", "slider", "weld", "free", "ball" or "spring"
     name: Ident
     a: AttachmentRef
     b: AttachmentRef
@@ -294,8 +304,10 @@ class ToSyntax(Transformer):
 
     # statements
     def model_stmt(self, meta, children) -> ModelStmt:
-        description = str(children[1])[1:-1] if len(children) > 1 else ""
-        return ModelStmt(self._ident(children[0]), description, self._span(meta))
+        name, *rest = children
+        spatial = bool(rest) and isinstance(rest[0], Token) and rest[0].type == "SPATIAL"
+        description = str(rest[-1])[1:-1] if rest and rest[-1].type == "STRING" else ""
+        return ModelStmt(self._ident(name), description, self._span(meta), spatial)
 
     def param_stmt(self, meta, children) -> ParamStmt:
         return ParamStmt(self._ident(children[0]), children[1], self._span(meta))

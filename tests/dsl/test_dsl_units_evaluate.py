@@ -11,7 +11,7 @@ import pytest
 from depsim.dsl import EvaluationError, evaluate, parse_quantity
 from depsim.dsl.evaluate import binary, negate
 from depsim.dsl.ir import Binary, Call, Dim, HingeAngle, Num, ParamRef, Unary
-from depsim.dsl.syntax import FOR_WORDS, INPUT_WORDS, KEYWORDS
+from depsim.dsl.syntax import FOR_WORDS, INPUT_WORDS, KEYWORDS, MODEL_WORDS
 from depsim.dsl.units import UNITS, describe, dim_scale, parse_unit, si_text
 
 GRAMMAR = Path(__file__).parents[2] / "dsl" / "grammar.lark"
@@ -28,7 +28,7 @@ def test_keywords_are_the_grammar_words():
     found = re.findall(r"^([A-Z]+)\.2: /([a-z]+)\(\?!\[A-Za-z0-9_\]\)/$", GRAMMAR.read_text(),
                        flags=re.M)
     assert all(name == word.upper() for name, word in found)
-    assert {word for _, word in found} == KEYWORDS | {"on"} | set(FOR_WORDS)
+    assert {word for _, word in found} == KEYWORDS | {"on"} | set(FOR_WORDS) | set(MODEL_WORDS)
     kinds = re.search(r"^LOAD_KIND\.2: /\(([a-z|]+)\)", GRAMMAR.read_text(), flags=re.M)
     assert {"on", *kinds.group(1).split("|")} == set(INPUT_WORDS)
 

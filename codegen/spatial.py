@@ -1,0 +1,487 @@
+"""Spatial models: member geometry in 3-D as sympy expressions of q (docs/method.md, 12).
+
+A rigid body's coordinates are its centre of mass (x, y, z) and the nine entries of its
+rotation matrix R (body frame to world, row by row: R11, R12, ..., R33), so a body point at
+rho (body frame) is at r + R rho, linear in q. The kinetic energy is then
+
+    T = m |r'|^2 / 2 + sum_i R'_i J R'_i^T / 2,   J = integral rho rho^T dm = tr(I)/2 - I,
+
+(R'_i the i-th row of R', I the inertia tensor about the centre of mass in the body frame): the
+mass matrix is constant, diag(m, m, m) and one block J per row of R, as the integrator's core
+needs it. R stays a rotation through six rows per body, R^T R = 1 (columns of unit length and
+orthogonal), which the iteration handles like any joint's. J is positive definite exactly when
+the principal moments satisfy the strict triangle inequality (the checker's range check). A
+particle has (x, y, z).
+
+Joints: a hinge holds its points together (rows x, y, z) and its axis a (member A's frame,
+unit) parallel to the same axis fixed in B (rows axis_1, axis_2: R_B a_B normal to two unit
+vectors e, f of A normal to a). A member's `orientation` is its frame's in the world when
+every hinge is at zero, so at the hinge angle theta
+
+    R_B = R_A Rot(a, sign (theta - offset)) R0,   R0 = O_A^T O_B (the orientations),
+
+and theta is measured by the turn of e about a, within half a turn of its initial value (the
+angle does not jump where atan2 would). A weld holds R_B = R_A R0 (rows rx, ry, rz), a ball
+joint its points only."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import sympy
+
+from depsim.dsl import ir
+
+from .errors import CodegenError
+from .expr import ConstantScope, to_sympy
+from .kinematics import Coordinates
+
+Vector3 = tuple[sympy.Expr, sympy.Expr, sympy.Expr]
+
+BODY_COORDINATES = ("x", "y", "z") + tuple(f"R{i}{j}" for i in "123" for j in "123")
+PARTICLE_COORDINATES = ("x", "y", "z")
+# The columns of a spatial model's system_state(q, qd, p) (depsim.runtime.interface).
+SYSTEM_STATE = ("mass", "com_x", "com_y", "com_z", "momentum_x", "momentum_y", "momentum_z",
+                "angular_momentum_x", "angular_momentum_y", "angular_momentum_z")
+_AXES = {"x": 0, "y": 1, "z": 2}
+
+
+def turn(axis: str, angle: sympy.Expr) -> sympy.Matrix:
+    """The right-handed rotation by `angle` about the named axis."""
+    c, s = sympy.cos(angle), sympy.sin(angle)
+    k = _AXES[axis]
+    i, j = (k + 1) % 3, (k + 2) % 3
+    matrix = sympy.eye(3)
+    matrix[i, i], matrix[i, j], matrix[j, i], matrix[j, j] = c, -s, s, c
+    return matrix
+
+
+def rotation_about(axis: Vector3, angle: sympy.Expr) -> sympy.Matrix:
+    """Rodrigues: the rotation by `angle` about the unit vector `axis`."""
+    a = sympy.Matrix(axis)
+    cross = sympy.Matrix([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+    return sympy.cos(angle) * sympy.eye(3) + sympy.sin(angle) * cross \
+        + (1 - sympy.cos(angle)) * a * a.T
+
+
+def dot(u, v) -> sympy.Expr:
+    return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
+
+
+def cross(u, v) -> Vector3:
+    return (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
+
+
+def unit(vector) -> Vector3:
+    norm = sympy.sqrt(dot(vector, vector))
+    return tuple(component / norm for component in vector)
+
+
+def times(matrix: sympy.Matrix, vector) -> Vector3:
+    """matrix . vector as a tuple."""
+    return tuple(sympy.Add(*(matrix[i, j] * vector[j] for j in range(3))) for i in range(3))
+
+
+def normal_pair(axis: Vector3, defaults: Vector3) -> tuple[Vector3, Vector3]:
+    """Two unit vectors e, f = a x e normal to the unit `axis` and to each other: e from the
+    world axis least along `axis` at the default parameters (`defaults`, the axis's value)."""
+    k = min(range(3), key=lambda i: abs(defaults[i]))
+    basis = tuple(sympy.Integer(int(i == k)) for i in range(3))
+    e = unit(cross(axis, basis))
+    return e, cross(axis, e)
+
+
+@dataclass(frozen=True)
+class HingeFrame:
+    """A spatial hinge's geometry, constant in its members' frames: the unit axis a and the
+    normal e, f in A's frame, the same axis and e in B's (a_b = R0^T a), and R0."""
+
+    axis: Vector3
+    e: Vector3
+    f: Vector3
+    axis_b: Vector3
+    e_b: Vector3
+    relative: sympy.Matrix  # R0 = O_A^T O_B
+
+
+class SpatialKinematics:
+    """Member geometry of a spatial model as sympy expressions of q (and p); the scope of
+    output expressions (the expr.Scope protocol, as Kinematics for planar models)."""
+
+    def __init__(self, model: ir.Model, symbols: Coordinates,
+                 hinge_turns: tuple[sympy.Expr, ...] | None = None):
+        self.model = model
+        self.symbols = symbols
+        self.p, self.t = symbols.p, symbols.t
+        self.beams = ()
+        # each hinge's turn at t = 0 (rad, an expression of p): its angle is measured within
+        # half a turn of it (set once the assembly is known)
+        self.hinge_turns = hinge_turns
+        self._rate_of = dict(zip(symbols.q, symbols.qd))
+        self._constant_scope = ConstantScope(symbols.p, symbols.t)
+        self._frames: dict[int, HingeFrame] = {}
+        # Constant geometry (unit axes, relative orientations: functions of p) stands as
+        # named symbols while derive differentiates, and is put back at the end
+        # (`constants`): the expressions of q stay small.
+        self.constants: dict[sympy.Symbol, sympy.Expr] = {}
+
+    def named(self, name: str, value: sympy.Expr) -> sympy.Expr:
+        """`value` (a function of p) as the symbol `@name`, or itself when a number."""
+        if value.is_number:
+            return value
+        symbol = sympy.Symbol(f"@{name}")
+        self.constants[symbol] = value
+        return symbol
+
+    def _named_vector(self, name: str, vector) -> Vector3:
+        return tuple(self.named(f"{name}_{axis}", value) for axis, value in zip("xyz", vector))
+
+    def const(self, expr: ir.Expr) -> sympy.Expr:
+        """A constant (parameter-only) IR expression as sympy."""
+        return to_sympy(expr, self._constant_scope)
+
+    def rate(self, expr: sympy.Expr) -> sympy.Expr:
+        """Time derivative of a function of q (not of t): (d expr/dq) q'."""
+        present = expr.free_symbols
+        return sympy.Add(*(expr.diff(s) * self._rate_of[s] for s in self.symbols.q
+                           if s in present))
+
+    # -- coordinates -----------------------------------------------------------------------
+
+    def body_symbols(self, body: int) -> tuple[sympy.Symbol, ...]:
+        """(x, y, z, R11, ..., R33) of rigid body `body`."""
+        return self.symbols.q[12 * body: 12 * body + 12]
+
+    def particle_symbols(self, particle: int) -> tuple[sympy.Symbol, ...]:
+        start = 12 * len(self.model.bodies) + 3 * particle
+        return self.symbols.q[start: start + 3]
+
+    def member_symbols(self, member: ir.Member) -> tuple[sympy.Symbol, ...]:
+        if member.kind is ir.MemberKind.BODY:
+            return self.body_symbols(member.index)
+        assert member.kind is ir.MemberKind.PARTICLE, "the ground has no coordinates"
+        return self.particle_symbols(member.index)
+
+    def rotation(self, member: ir.Member) -> sympy.Matrix:
+        """R of a body (body frame to world); the identity for the ground."""
+        if member.kind is ir.MemberKind.GROUND:
+            return sympy.eye(3)
+        assert member.kind is ir.MemberKind.BODY, "a particle has no orientation"
+        return sympy.Matrix(3, 3, self.body_symbols(member.index)[3:])
+
+    def orientation(self, member: ir.Member) -> sympy.Matrix:
+        """The member's orientation when every hinge is at zero (a function of p)."""
+        if member.kind is not ir.MemberKind.BODY:
+            return sympy.eye(3)
+        return self.turns(self.model.bodies[member.index].orientation)
+
+    def turns(self, turns: tuple[ir.Turn, ...]) -> sympy.Matrix:
+        result = sympy.eye(3)
+        for factor in turns:
+            result = result * turn(factor.axis, self.const(factor.angle))
+        return result
+
+    def second_moment(self, body: ir.Body) -> sympy.Matrix:
+        """J = integral rho rho^T dm = tr(I)/2 - I in the body frame."""
+        moments = [self.const(value) for value in body.principal]
+        axes = self.turns(body.principal_axes)
+        inertia = axes * sympy.diag(*moments) * axes.T
+        return sympy.Add(*moments) / 2 * sympy.eye(3) - inertia
+
+    # -- points ----------------------------------------------------------------------------
+
+    def member_name(self, member: ir.Member) -> str:
+        if member.kind is ir.MemberKind.GROUND:
+            return "ground"
+        elements = self.model.bodies if member.kind is ir.MemberKind.BODY \
+            else self.model.particles
+        return elements[member.index].name
+
+    def local_point(self, member: ir.Member, name: str) -> Vector3:
+        """A point of the ground (world frame) or of a body (body frame, from its centre of
+        mass)."""
+        zero = sympy.Integer(0)
+        if name == "cm" and member.kind is not ir.MemberKind.GROUND:
+            return (zero, zero, zero)
+        if member.kind is ir.MemberKind.GROUND and name == "origin":
+            return (zero, zero, zero)
+        element = self.model.ground if member.kind is ir.MemberKind.GROUND \
+            else self.model.bodies[member.index]
+        for point in getattr(element, "points", ()):
+            if point.name == name:
+                return (self.const(point.x), self.const(point.y), self.const(point.z))
+        raise CodegenError("E904", f"'{self.member_name(member)}' has no point '{name}'",
+                           getattr(element, "span", None))
+
+    def point_position(self, member: ir.Member, name: str) -> Vector3:
+        """World position of a named point of a member."""
+        local = self.local_point(member, name)
+        if member.kind is ir.MemberKind.GROUND:
+            return local
+        if member.kind is ir.MemberKind.PARTICLE:
+            return tuple(self.particle_symbols(member.index))
+        x, y, z = self.body_symbols(member.index)[:3]
+        offset = times(self.rotation(member), local)
+        return (x + offset[0], y + offset[1], z + offset[2])
+
+    def attachment_position(self, attachment: ir.Attachment) -> Vector3:
+        return self.point_position(attachment.member, attachment.point)
+
+    # -- joints ----------------------------------------------------------------------------
+
+    def relative_orientation(self, a: ir.Member, b: ir.Member) -> sympy.Matrix:
+        """R0 = O_A^T O_B: B's frame in A's when the joint between them is at zero (named)."""
+        relative = self.orientation(a).T * self.orientation(b)
+        prefix = f"{self.member_name(a)}.{self.member_name(b)}.R0"
+        return sympy.Matrix(3, 3, lambda i, j: self.named(f"{prefix}_{i + 1}{j + 1}",
+                                                          relative[i, j]))
+
+    def resolved(self) -> dict[sympy.Symbol, sympy.Expr]:
+        """Each named constant as an expression of p alone (a name's value may use earlier
+        names)."""
+        found: dict[sympy.Symbol, sympy.Expr] = {}
+        for symbol, value in self.constants.items():
+            found[symbol] = value.xreplace(found)
+        return found
+
+    def hinge_frame(self, index: int) -> HingeFrame:
+        if index not in self._frames:
+            hinge = self.model.hinges[index]
+            name = hinge.name
+            raw = tuple(self.const(component) for component in hinge.axis)
+            defaults = tuple(float(value.subs(self._defaults())) for value in raw)
+            axis = self._named_vector(f"{name}.axis", unit(raw))
+            e, f = normal_pair(axis, defaults)
+            e, f = self._named_vector(f"{name}.e", e), self._named_vector(f"{name}.f", f)
+            relative = self.relative_orientation(hinge.a.member, hinge.b.member)
+            self._frames[index] = HingeFrame(
+                axis, e, f, self._named_vector(f"{name}.axis_b", times(relative.T, axis)),
+                self._named_vector(f"{name}.e_b", times(relative.T, e)), relative)
+        return self._frames[index]
+
+    def _defaults(self) -> dict:
+        return {symbol: param.default for symbol, param in zip(self.p, self.model.params)}
+
+    def hinge_rows(self, index: int) -> tuple[sympy.Expr, sympy.Expr]:
+        """The two rows holding a hinge's axis: (R_B a_b) . (R_A e), (R_B a_b) . (R_A f)."""
+        hinge, frame = self.model.hinges[index], self.hinge_frame(index)
+        ra, rb = self.rotation(hinge.a.member), self.rotation(hinge.b.member)
+        axis_b = times(rb, frame.axis_b)
+        return dot(axis_b, times(ra, frame.e)), dot(axis_b, times(ra, frame.f))
+
+    def hinge_turn_parts(self, index: int, near: sympy.Expr) -> tuple[sympy.Expr, sympy.Expr]:
+        """(S, C): the turn of B relative to A about the axis is near + atan2(S, C), the angle
+        from A's e turned by `near` to B's e about the axis (S, C bilinear in q)."""
+        hinge, frame = self.model.hinges[index], self.hinge_frame(index)
+        ra, rb = self.rotation(hinge.a.member), self.rotation(hinge.b.member)
+        start = self._named_vector(f"{hinge.name}.start", (
+            sympy.cos(near) * e + sympy.sin(near) * f for e, f in zip(frame.e, frame.f)))
+        u, w, n = times(ra, start), times(rb, frame.e_b), times(ra, frame.axis)
+        return dot(cross(u, w), n), dot(u, w)
+
+    def hinge_raw_turn(self, index: int, near: sympy.Expr) -> sympy.Expr:
+        """The turn of B relative to A about the axis (rad), within half a turn of `near`."""
+        sine, cosine = self.hinge_turn_parts(index, near)
+        return near + sympy.atan2(sine, cosine)
+
+    def hinge_near(self, index: int) -> sympy.Expr:
+        return self.hinge_turns[index] if self.hinge_turns is not None else sympy.Integer(0)
+
+    def hinge_theta(self, index: int) -> sympy.Expr:
+        """Hinge angle theta = sign turn + offset (rad)."""
+        hinge = self.model.hinges[index]
+        return hinge.sign * self.hinge_raw_turn(index, self.hinge_near(index)) \
+            + self.const(hinge.offset)
+
+    def hinge_derivatives(self, index: int) -> tuple[dict[int, sympy.Expr], sympy.Expr]:
+        """d theta/dq (coordinate index -> entry) and -(d theta/dq qd)_q qd of a hinge, from
+        theta = sign (near + atan2(S, C)) + offset written out: with D = S^2 + C^2 and dots
+        the rates along qd, theta' = sign (C S' - S C')/D and
+
+            -(theta'_q qd) = -sign ((C S'' - S C'') D - 2 (C S' - S C') (S S' + C C')) / D^2,
+
+        S'' = (S'_q qd) (S is bilinear in q, so these stay small where sympy's derivatives of
+        atan2 would not)."""
+        sign = self.model.hinges[index].sign
+        sine, cosine = self.hinge_turn_parts(index, self.hinge_near(index))
+        q, qd = self.symbols.q, self.symbols.qd
+        position = {s: j for j, s in enumerate(q)}
+        present = sorted((sine.free_symbols | cosine.free_symbols) & position.keys(),
+                         key=position.get)
+        grad_s = {position[s]: sine.diff(s) for s in present}
+        grad_c = {position[s]: cosine.diff(s) for s in present}
+        size = sine**2 + cosine**2
+        gradient = {j: sign * (cosine * grad_s[j] - sine * grad_c[j]) / size for j in grad_s}
+        gradient = {j: g for j, g in gradient.items() if g != 0}
+        rate_s = sympy.Add(*(g * qd[j] for j, g in grad_s.items()))
+        rate_c = sympy.Add(*(g * qd[j] for j, g in grad_c.items()))
+        second_s = sympy.Add(*(rate_s.diff(s) * qd[position[s]] for s in present))
+        second_c = sympy.Add(*(rate_c.diff(s) * qd[position[s]] for s in present))
+        numerator = cosine * rate_s - sine * rate_c
+        gamma = -sign * ((cosine * second_s - sine * second_c) * size
+                         - 2 * numerator * (sine * rate_s + cosine * rate_c)) / size**2
+        return gradient, gamma
+
+    def weld_rows(self, index: int) -> tuple[sympy.Expr, sympy.Expr, sympy.Expr]:
+        """R_B = R_A R0 as three rows: b3 . c2, b1 . c3, b2 . c1 (b_k the columns of R_B, c_k
+        of R_A R0), zero there and each the first-order turn about x, y, z."""
+        weld = self.model.welds[index]
+        target = self.rotation(weld.a.member) \
+            * self.relative_orientation(weld.a.member, weld.b.member)
+        actual = self.rotation(weld.b.member)
+        b = [actual[:, k] for k in range(3)]
+        c = [target[:, k] for k in range(3)]
+        return dot(b[2], c[1]), dot(b[0], c[2]), dot(b[1], c[0])
+
+    def spring_offset(self, index: int) -> Vector3:
+        spring = self.model.springs[index]
+        ra, rb = self.attachment_position(spring.a), self.attachment_position(spring.b)
+        return tuple(b - a for a, b in zip(ra, rb))
+
+    def spring_length(self, index: int) -> sympy.Expr:
+        offset = self.spring_offset(index)
+        return sympy.sqrt(dot(offset, offset))
+
+    # -- the whole system ------------------------------------------------------------------
+
+    def rigid_modes(self) -> tuple[list[list], list[list]]:
+        """How each coordinate moves in a rigid motion of the whole system: per unit
+        translation along x, y, z, and per radian of rotation about the world axes x, y, z
+        through the origin (positions turn as e_k x r, a rotation matrix as [e_k]x R)."""
+        one, zero = sympy.Integer(1), sympy.Integer(0)
+        translations: list[list] = [[], [], []]
+        rotations: list[list] = [[], [], []]
+        for index in range(len(self.model.bodies)):
+            symbols = self.body_symbols(index)
+            position, matrix = symbols[:3], sympy.Matrix(3, 3, symbols[3:])
+            for k in range(3):
+                e = tuple(one if i == k else zero for i in range(3))
+                translations[k] += [e[i] for i in range(3)] + [zero] * 9
+                turned = sympy.Matrix(3, 3, lambda i, j: cross(e, matrix[:, j])[i])
+                rotations[k] += list(cross(e, position)) + list(turned)
+        for index in range(len(self.model.particles)):
+            position = self.particle_symbols(index)
+            for k in range(3):
+                e = tuple(one if i == k else zero for i in range(3))
+                translations[k] += list(e)
+                rotations[k] += list(cross(e, position))
+        return translations, rotations
+
+    # -- the Scope protocol of expr.to_sympy (state references in outputs) ------------------
+
+    def body_coord(self, body: int, coord: str) -> sympy.Expr:
+        symbols = self.body_symbols(body)
+        if coord in ("x", "y", "z"):
+            return symbols[_AXES[coord]]
+        if coord in ("vx", "vy", "vz"):
+            return self._rate_of[symbols[_AXES[coord[1]]]]
+        if coord.startswith("R"):
+            return symbols[3 + 3 * (int(coord[1]) - 1) + int(coord[2]) - 1]
+        # the world angular velocity: R' R^T = [w]x, taken by its skew part
+        matrix = sympy.Matrix(3, 3, symbols[3:])
+        rates = matrix.applyfunc(lambda s: self._rate_of[s])
+        spin = rates * matrix.T
+        i, j = {"wx": (2, 1), "wy": (0, 2), "wz": (1, 0)}[coord]
+        return (spin[i, j] - spin[j, i]) / 2
+
+    def point_coord(self, member: ir.Member, point: str, axis: str) -> sympy.Expr:
+        position = self.point_position(member, point)
+        value = position[_AXES[axis[-1]]]
+        return self.rate(value) if axis.startswith("v") else value
+
+    def hinge_angle(self, hinge: int, rate: bool) -> sympy.Expr:
+        theta = self.hinge_theta(hinge)
+        return self.rate(theta) if rate else theta
+
+
+# -- the system's parts ------------------------------------------------------------------------
+
+Row = tuple[str, str, int, int, sympy.Expr]  # name, joint, hinge (or -1), slider (-1), residual
+
+
+def spatial_rows(model: ir.Model, kin: SpatialKinematics) -> list[Row]:
+    """Every constraint row: each body's six (its rotation matrix's columns of unit length
+    and orthogonal), then the hinges' (x, y, z: the reaction force; axis_1, axis_2), the
+    welds' (x, y, z; rx, ry, rz between bodies) and the ball joints' (x, y, z). Only a
+    hinge's force rows name it (its axis rows are its reaction torque normal to the axis)."""
+    rows: list[Row] = []
+    for index, body in enumerate(model.bodies):
+        columns = [kin.rotation(ir.Member(ir.MemberKind.BODY, index))[:, k] for k in range(3)]
+        for name, (i, j) in zip(("xx", "yy", "zz", "xy", "yz", "zx"),
+                                ((0, 0), (1, 1), (2, 2), (0, 1), (1, 2), (2, 0))):
+            residual = dot(columns[i], columns[j]) - (1 if i == j else 0)
+            rows.append((f"{body.name}.frame_{name}", body.name, -1, -1, residual))
+    for index, hinge in enumerate(model.hinges):
+        rows += _point_rows(kin, hinge, index)
+        for k, residual in enumerate(kin.hinge_rows(index)):
+            rows.append((f"{hinge.name}.axis_{k + 1}", hinge.name, -1, -1, residual))
+    for index, weld in enumerate(model.welds):
+        rows += _point_rows(kin, weld, -1)
+        if weld.rotational:
+            for name, residual in zip(("rx", "ry", "rz"), kin.weld_rows(index)):
+                rows.append((f"{weld.name}.{name}", weld.name, -1, -1, residual))
+    for ball in model.balls:
+        rows += _point_rows(kin, ball, -1)
+    return rows
+
+
+def _point_rows(kin: SpatialKinematics, joint, hinge: int) -> list[Row]:
+    ra, rb = kin.attachment_position(joint.a), kin.attachment_position(joint.b)
+    return [(f"{joint.name}.{axis}", joint.name, hinge, -1, a - b)
+            for axis, a, b in zip("xyz", ra, rb)]
+
+
+def spatial_mass_matrix(model: ir.Model, kin: SpatialKinematics) -> sympy.ImmutableSparseMatrix:
+    """Constant M: per body diag(m, m, m) and the block J for each row of R; per particle
+    diag(m, m, m)."""
+    entries, start = {}, 0
+    for body in model.bodies:
+        mass = kin.const(body.mass)
+        for k in range(3):
+            entries[(start + k, start + k)] = mass
+        second = kin.second_moment(body)
+        for row in range(3):
+            base = start + 3 + 3 * row
+            for i in range(3):
+                for j in range(3):
+                    if second[i, j] != 0:
+                        entries[(base + i, base + j)] = second[i, j]
+        start += 12
+    for particle in model.particles:
+        for k in range(3):
+            entries[(start + k, start + k)] = kin.const(particle.mass)
+        start += 3
+    size = len(kin.symbols.q)
+    return sympy.ImmutableSparseMatrix(size, size, entries)
+
+
+def spatial_coordinate_scales(model: ir.Model, kin: SpatialKinematics) -> list[sympy.Expr]:
+    """Per coordinate the size its errors are measured against (docs/method.md, 6a): the
+    model's length for a position (a body's largest point distance or radius of gyration, a
+    spring's free length), 1 for an entry of a rotation matrix."""
+    sizes = []
+    for body in model.bodies:
+        if body.length is not None:
+            sizes.append(kin.const(body.length))
+        moments = [kin.const(value) for value in body.principal]
+        sizes.append(sympy.sqrt(sympy.Max(*moments) / kin.const(body.mass)))
+        sizes += [sympy.sqrt(kin.const(point.x) ** 2 + kin.const(point.y) ** 2
+                             + kin.const(point.z) ** 2) for point in body.points]
+    sizes += [kin.const(spring.free_length) for spring in model.springs
+              if spring.free_length is not None]
+    sizes = [size for size in sizes if size != 0]
+    length = sympy.Max(*sizes) if sizes else sympy.Integer(1)
+    one = sympy.Integer(1)
+    return ([length] * 3 + [one] * 9) * len(model.bodies) \
+        + [length] * 3 * len(model.particles)
+
+
+def spatial_gravity(model: ir.Model, kin: SpatialKinematics) -> sympy.Expr:
+    """V = -sum m g . r over bodies and particles."""
+    g = [kin.const(component) for component in model.gravity]
+    energy = sympy.Integer(0)
+    for index, body in enumerate(model.bodies):
+        energy -= kin.const(body.mass) * dot(g, kin.body_symbols(index)[:3])
+    for index, particle in enumerate(model.particles):
+        energy -= kin.const(particle.mass) * dot(g, kin.particle_symbols(index))
+    return energy

@@ -1,0 +1,147 @@
+"""The initial state of a spatial model: forward kinematics along Model.placements, as the
+planar assembly does it (codegen/assembly.py: one group of local steps per member, the
+velocities by forward differentiation of the same steps).
+
+Each placement puts its child so that the joint's attachment points coincide (a free joint:
+b's point at (x, y, z) from a's in a's frame) and turns it from its parent: a hinge by its
+angle about its axis, a ball or free joint by three turns about the parent's axes x, y, z
+(zero at t = 0: the members' orientations place the child; their rates are the child's
+angular velocity relative to the parent, in the parent's frame), a weld not at all. With every
+joint at zero each member has its `orientation`."""
+
+from __future__ import annotations
+
+import sympy
+
+from depsim.dsl import ir
+
+from .assembly import Assembly, _joint_value, _Placing, _sides
+from .spatial import SpatialKinematics, Vector3, rotation_about, times, turn
+
+
+def assemble_spatial(model: ir.Model, kin: SpatialKinematics) -> Assembly:
+    """The tree placement of a spatial model's members and its initial values."""
+    state = _Placing(dict(zip(kin.symbols.q, kin.symbols.qd)))
+    place = {ir.JointKind.HINGE: _place_hinge, ir.JointKind.WELD: _place_weld,
+             ir.JointKind.BALL: _place_ball, ir.JointKind.FREE: _place_free}
+    for placement in model.placements:
+        _place_at_origin(kin, placement.parent, state)
+        place[placement.kind](kin, placement, state)
+    for kind, count in ((ir.MemberKind.BODY, len(model.bodies)),
+                        (ir.MemberKind.PARTICLE, len(model.particles))):
+        for index in range(count):
+            _place_at_origin(kin, ir.Member(kind, index), state)
+    v = tuple(state.values)
+    return Assembly(tree_joints=tuple(name for name, _ in state.names), v=v,
+                    vd=tuple(state.rates[s] for s in v),
+                    v0=tuple(value for value, _ in state.values.values()),
+                    vd0=tuple(rate for _, rate in state.values.values()),
+                    held=tuple(held for _, held in state.names), pose=tuple(state.pose),
+                    tangent=tuple(state.tangent), beam_angles=(), local=state.local)
+
+
+def hinge_turns(model: ir.Model, kin: SpatialKinematics, assembly: Assembly
+                ) -> tuple[sympy.Expr, ...]:
+    """Each hinge's turn at t = 0 (rad, of p): sign (theta0 - offset) for a hinge that
+    places a member, the placed members' turn for one that closes a loop."""
+    placing = {p.joint for p in model.placements if p.kind is ir.JointKind.HINGE}
+    turns = []
+    for index, hinge in enumerate(model.hinges):
+        if index in placing:
+            turns.append(hinge.sign * (kin.const(hinge.initial_angle)
+                                       - kin.const(hinge.offset)))
+        else:
+            raw = assembly.at_start(kin.hinge_raw_turn(index, sympy.Integer(0)))
+            turns.append(raw.xreplace(kin.resolved()))
+    return tuple(turns)
+
+
+def _rotation(kin: SpatialKinematics, member: ir.Member) -> sympy.Matrix:
+    """A placed member's rotation (a particle's frame is the world's)."""
+    if member.kind is ir.MemberKind.PARTICLE:
+        return sympy.eye(3)
+    return kin.rotation(member)
+
+
+def _relative(kin: SpatialKinematics, joint) -> sympy.Matrix:
+    """R0 of a joint whose members may be particles (their orientation is the world's)."""
+    return kin.relative_orientation(joint.a.member, joint.b.member)
+
+
+def _place_turned(kin: SpatialKinematics, joint, placement: ir.Placement,
+                  turned: sympy.Matrix, state: _Placing, offset: Vector3 | None = None) -> None:
+    """Place the child of `placement` with R_b = R_a turned R0, and b's point at a's point
+    (plus `offset` in a's frame, a free joint's)."""
+    parent, child, child_is_b = _sides(joint, placement)
+    relative = _relative(kin, joint)
+    point = kin.attachment_position(parent)
+    if child_is_b:
+        rotation_a = _rotation(kin, parent.member)
+        rotation = rotation_a * turned * relative
+        if offset is not None:
+            point = tuple(p + d for p, d in zip(point, times(rotation_a, offset)))
+    else:
+        rotation = _rotation(kin, parent.member) * relative.T * turned.T
+        if offset is not None:
+            point = tuple(p - d for p, d in zip(point, times(rotation, offset)))
+    _place_member(kin, child, point, rotation, state)
+
+
+def _place_hinge(kin: SpatialKinematics, placement: ir.Placement, state: _Placing) -> None:
+    hinge = kin.model.hinges[placement.joint]
+    theta = _joint_value(kin, hinge.name, hinge.initial_angle, hinge.initial_rate,
+                         hinge.held, state)
+    frame = kin.hinge_frame(placement.joint)
+    angle = hinge.sign * (theta - kin.const(hinge.offset))
+    _place_turned(kin, hinge, placement, rotation_about(frame.axis, angle), state)
+
+
+def _place_weld(kin: SpatialKinematics, placement: ir.Placement, state: _Placing) -> None:
+    _place_turned(kin, kin.model.welds[placement.joint], placement, sympy.eye(3), state)
+
+
+def _turn_values(kin: SpatialKinematics, joint, first: int, state: _Placing) -> sympy.Matrix:
+    """Rz(c) Ry(b) Rx(a) of a joint's three turn values (pairs first.. of its initial)."""
+    values = [_joint_value(kin, f"{joint.name}.{name}", joint.initial[2 * (first + k)],
+                           joint.initial[2 * (first + k) + 1], joint.held[first + k], state)
+              for k, name in enumerate(("turn_x", "turn_y", "turn_z"))]
+    return turn("z", values[2]) * turn("y", values[1]) * turn("x", values[0])
+
+
+def _place_ball(kin: SpatialKinematics, placement: ir.Placement, state: _Placing) -> None:
+    ball = kin.model.balls[placement.joint]
+    _place_turned(kin, ball, placement, _turn_values(kin, ball, 0, state), state)
+
+
+def _place_free(kin: SpatialKinematics, placement: ir.Placement, state: _Placing) -> None:
+    free = kin.model.free_joints[placement.joint]
+    offset = tuple(_joint_value(kin, f"{free.name}.{name}", free.initial[2 * k],
+                                free.initial[2 * k + 1], free.held[k], state)
+                   for k, name in enumerate("xyz"))
+    _place_turned(kin, free, placement, _turn_values(kin, free, 3, state), state, offset)
+
+
+def _place_member(kin: SpatialKinematics, attachment: ir.Attachment, point: Vector3,
+                  rotation: sympy.Matrix, state: _Placing) -> None:
+    """Place a member so that `attachment` is at world `point`, turned by `rotation` (a
+    particle goes to `point`)."""
+    member = attachment.member
+    symbols = kin.member_symbols(member)
+    if member.kind is ir.MemberKind.PARTICLE:
+        state.place(symbols, point)
+        return
+    offset = times(rotation, kin.local_point(member, attachment.point))
+    state.place(symbols, tuple(p - o for p, o in zip(point, offset)) + tuple(rotation))
+
+
+def _place_at_origin(kin: SpatialKinematics, member: ir.Member, state: _Placing) -> None:
+    """Start a member not yet placed (the root of a floating tree) at the origin, in its
+    orientation."""
+    if member.kind is ir.MemberKind.GROUND or kin.member_symbols(member)[0] in state.local:
+        return
+    zero = sympy.Integer(0)
+    origin = (zero, zero, zero)
+    if member.kind is ir.MemberKind.PARTICLE:
+        state.place(kin.member_symbols(member), origin)
+    else:
+        state.place(kin.member_symbols(member), origin + tuple(kin.orientation(member)))
