@@ -322,13 +322,49 @@ class SpatialKinematics:
                          - 2 * numerator * (sine * rate_s + cosine * rate_c)) / size**2
         return gradient, gamma
 
+    def slider_frame(self, index: int) -> tuple[Vector3, Vector3, Vector3]:
+        """A slider's unit axis a and two unit normals e, f in member A's frame (named)."""
+        slider = self.model.sliders[index]
+        raw = tuple(self.const(component) for component in slider.axis)
+        defaults = tuple(float(value.subs(self._defaults())) for value in raw)
+        axis = self._named_vector(f"{slider.name}.axis", unit(raw))
+        e, f = normal_pair(axis, defaults)
+        return axis, self._named_vector(f"{slider.name}.e", e), \
+            self._named_vector(f"{slider.name}.f", f)
+
+    def slider_offset(self, index: int) -> Vector3:
+        """r_b - r_a of the slider's two attachment points (world frame)."""
+        slider = self.model.sliders[index]
+        ra, rb = self.attachment_position(slider.a), self.attachment_position(slider.b)
+        return tuple(b - a for a, b in zip(ra, rb))
+
+    def slider_s(self, index: int) -> sympy.Expr:
+        """Slider displacement s = (R_A a) . (r_b - r_a) (m)."""
+        axis = times(self.rotation(self.model.sliders[index].a.member),
+                     self.slider_frame(index)[0])
+        return dot(axis, self.slider_offset(index))
+
+    def slider_rows(self, index: int) -> tuple[sympy.Expr, sympy.Expr]:
+        """The offset normal to the axis: (R_A e) . (r_b - r_a), (R_A f) . (r_b - r_a)."""
+        slider = self.model.sliders[index]
+        _, e, f = self.slider_frame(index)
+        rotation, offset = self.rotation(slider.a.member), self.slider_offset(index)
+        return dot(times(rotation, e), offset), dot(times(rotation, f), offset)
+
+    def slider_position(self, slider: int, rate: bool) -> sympy.Expr:
+        s = self.slider_s(slider)
+        return self.rate(s) if rate else s
+
     def weld_rows(self, index: int) -> tuple[sympy.Expr, sympy.Expr, sympy.Expr]:
         """R_B = R_A R0 as three rows: b3 . c2, b1 . c3, b2 . c1 (b_k the columns of R_B, c_k
         of R_A R0), zero there and each the first-order turn about x, y, z."""
         weld = self.model.welds[index]
-        target = self.rotation(weld.a.member) \
-            * self.relative_orientation(weld.a.member, weld.b.member)
-        actual = self.rotation(weld.b.member)
+        return self.turn_rows(weld.a.member, weld.b.member)
+
+    def turn_rows(self, a: ir.Member, b: ir.Member) -> tuple[sympy.Expr, sympy.Expr, sympy.Expr]:
+        """R_B = R_A R0 as three rows (weld_rows)."""
+        target = self.rotation(a) * self.relative_orientation(a, b)
+        actual = self.rotation(b)
         b = [actual[:, k] for k in range(3)]
         c = [target[:, k] for k in range(3)]
         return dot(b[2], c[1]), dot(b[0], c[2]), dot(b[1], c[0])
@@ -402,8 +438,10 @@ Row = tuple[str, str, int, int, sympy.Expr]  # name, joint, hinge (or -1), slide
 def spatial_rows(model: ir.Model, kin: SpatialKinematics) -> list[Row]:
     """Every constraint row: each body's six (its rotation matrix's columns of unit length
     and orthogonal), then the hinges' (x, y, z: the reaction force; axis_1, axis_2), the
-    welds' (x, y, z; rx, ry, rz between bodies) and the ball joints' (x, y, z). Only a
-    hinge's force rows name it (its axis rows are its reaction torque normal to the axis)."""
+    welds' (x, y, z; rx, ry, rz between bodies), the ball joints' (x, y, z) and the sliders'
+    (normal_1, normal_2: the offset normal to the axis; rx, ry, rz unless they move a
+    particle). Only a hinge's force rows name it (its axis rows are its reaction torque
+    normal to the axis)."""
     rows: list[Row] = []
     for index, body in enumerate(model.bodies):
         columns = [kin.rotation(ir.Member(ir.MemberKind.BODY, index))[:, k] for k in range(3)]
@@ -422,6 +460,13 @@ def spatial_rows(model: ir.Model, kin: SpatialKinematics) -> list[Row]:
                 rows.append((f"{weld.name}.{name}", weld.name, -1, -1, residual))
     for ball in model.balls:
         rows += _point_rows(kin, ball, -1)
+    for index, slider in enumerate(model.sliders):
+        for name, residual in zip(("normal_1", "normal_2"), kin.slider_rows(index)):
+            rows.append((f"{slider.name}.{name}", slider.name, -1, index, residual))
+        if slider.b.member.kind is not ir.MemberKind.PARTICLE:
+            turns = kin.turn_rows(slider.a.member, slider.b.member)
+            for name, residual in zip(("rx", "ry", "rz"), turns):
+                rows.append((f"{slider.name}.{name}", slider.name, -1, index, residual))
     return rows
 
 

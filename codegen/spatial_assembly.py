@@ -23,7 +23,8 @@ def assemble_spatial(model: ir.Model, kin: SpatialKinematics) -> Assembly:
     """The tree placement of a spatial model's members and its initial values."""
     state = _Placing(dict(zip(kin.symbols.q, kin.symbols.qd)))
     place = {ir.JointKind.HINGE: _place_hinge, ir.JointKind.WELD: _place_weld,
-             ir.JointKind.BALL: _place_ball, ir.JointKind.FREE: _place_free}
+             ir.JointKind.BALL: _place_ball, ir.JointKind.FREE: _place_free,
+             ir.JointKind.SLIDER: _place_slider}
     for placement in model.placements:
         _place_at_origin(kin, placement.parent, state)
         place[placement.kind](kin, placement, state)
@@ -98,6 +99,16 @@ def _place_hinge(kin: SpatialKinematics, placement: ir.Placement, state: _Placin
 
 def _place_weld(kin: SpatialKinematics, placement: ir.Placement, state: _Placing) -> None:
     _place_turned(kin, kin.model.welds[placement.joint], placement, sympy.eye(3), state)
+
+
+def _place_slider(kin: SpatialKinematics, placement: ir.Placement, state: _Placing) -> None:
+    """The child's point s along the axis (A's frame) from the parent's, not turned."""
+    slider = kin.model.sliders[placement.joint]
+    s = _joint_value(kin, slider.name, slider.initial_position, slider.initial_rate,
+                     slider.held, state)
+    axis = kin.slider_frame(placement.joint)[0]
+    _place_turned(kin, slider, placement, sympy.eye(3), state,
+                  tuple(s * component for component in axis))
 
 
 def _turn_values(kin: SpatialKinematics, joint, first: int, state: _Placing) -> sympy.Matrix:

@@ -27,7 +27,8 @@ _VALUES: dict[tuple[str, str], tuple[str, Dim]] = {
     ("free", "vy"): ("initial_vy", _VELOCITY), ("free", "omega"): ("initial_omega", _RATE),
 }
 # A spatial model's free joints and ball joints (ir.SPATIAL_FREE_VALUES, ir.TURN_VALUES).
-_SPATIAL_VALUES = {key: value for key, value in _VALUES.items() if key[0] in ("hinge",)}
+_SPATIAL_VALUES = {key: value for key, value in _VALUES.items()
+                   if key[0] in ("hinge", "slider")}
 _SPATIAL_VALUES.update({
     ("free", "x"): ("initial_x", LENGTH), ("free", "y"): ("initial_y", LENGTH),
     ("free", "z"): ("initial_z", LENGTH), ("free", "vx"): ("initial_vx", _VELOCITY),

@@ -348,7 +348,7 @@ class Slider:
     name: str
     a: Attachment
     b: Attachment
-    axis: tuple[Expr, Expr]  # direction in member a's frame (normalised by codegen)
+    axis: tuple[Expr, ...]  # direction in member a's frame (normalised by codegen); x, y[, z]
     initial_position: Expr  # m
     initial_rate: Expr  # m/s
     span: Span

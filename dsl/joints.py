@@ -88,6 +88,13 @@ def resolve_hinge(statement: JointStmt, symbols: SymbolTable, reader: AttributeR
     _check_hinge_limits(name, found, fields, reader)
     if ends is not None and not _torque_free(statement, ends, found, reader):
         return None
+    particle = particle_end(ends) if ends is not None else None
+    if reader.spatial and particle is not None:
+        reader.report.error("E048", f"hinge '{name}' joins {particle.describe()}, which has no "
+                            "orientation to carry a hinge axis in a spatial model",
+                            statement.span, hint="join the particle by a ball joint (it turns "
+                                                 "freely there) or a weld")
+        return None
     if reader.spatial and "axis" not in found:
         reader.report.error("E021", f"{owner} of a spatial model is missing the attribute "
                             "'axis'", statement.name.span,
@@ -177,7 +184,9 @@ def resolve_slider(statement: JointStmt, symbols: SymbolTable, reader: Attribute
         axis = read_vector(reader, item.value, NONE, "axis",
                            (f"{name}.axis_x", f"{name}.axis_y", f"{name}.axis_z"))
         if axis is not None:
-            size = binary("+", call("abs", (axis[0],)), call("abs", (axis[1],)))
+            size = call("abs", (axis[0],))
+            for component in axis[1:]:
+                size = binary("+", size, call("abs", (component,)))
             if not reader.check_limit(Limit(f"{name}.axis", size, "nonzero", "",
                                             item.value.span)):
                 axis = None

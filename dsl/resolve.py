@@ -33,7 +33,7 @@ from .units import si_text
 DEFAULT_SIMULATION = Simulation(t_end=10.0, tol=1e-8, dt_out=0.01)
 _SINGLE = (ModelStmt, GravityStmt, GroundStmt, SimulateStmt)  # at most one of each
 # Elements of planar models that spatial models do not have yet, as messages name them.
-_PLANAR_ONLY = {"beam": "flexible beams", "slider": "sliders"}
+_PLANAR_ONLY = {"beam": "flexible beams"}
 
 
 def resolve(source: SourceFile, text: str, report: Reporter) -> Model | None:

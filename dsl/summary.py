@@ -21,6 +21,10 @@ _SPRING_DIMS = {spec.name: spec.dim for spec in SPECS["spring"] if spec.dim is n
 _FREE_DIMS = (Dim(length=1), Dim(length=1, time=-1), Dim(length=1), Dim(length=1, time=-1),
               ANGLE, Dim(time=-1, angle=1))
 _HINGE_ATTRIBUTES = tuple(_HINGE_DIMS)
+_RATE = Dim(time=-1, angle=1)
+_SPATIAL_FREE_NAMES = ("x", "vx", "y", "vy", "z", "vz", "turn_x", "wx", "turn_y", "wy",
+                       "turn_z", "wz")
+_SPATIAL_FREE_DIMS = (Dim(length=1), Dim(length=1, time=-1)) * 3 + (ANGLE, _RATE) * 3
 
 
 def summary(model: Model) -> str:
@@ -28,8 +32,8 @@ def summary(model: Model) -> str:
     values = [p.default for p in model.params]
     lines = [f"model {model.name}" + (f": {model.description}" if model.description else ""),
              f"source {model.source_file} (sha256 {model.source_sha256[:12]})", ""]
-    for section in (_bodies, _particles, _beams, _hinges, _sliders, _welds, _free_joints,
-                    _springs, _cables, _sizes, _settings, _params, _outputs, _inputs, _warnings):
+    for section in (_bodies, _particles, _beams, _hinges, _sliders, _welds, _balls,
+                    _free_joints, _springs, _cables, _sizes, _settings, _params, _outputs, _inputs, _warnings):
         lines += section(model, values)
     return "\n".join(lines).rstrip() + "\n"
 
@@ -67,7 +71,11 @@ def _bodies(model: Model, values: list[float]) -> list[str]:
         if body.length is not None:
             parts.append(f"length {quantity(body.length, Dim(length=1), values)},")
         parts.append(f"mass {quantity(body.mass, Dim(mass=1), values)},")
-        parts.append(f"inertia {quantity(body.inertia, Dim(1, 2), values)};")
+        if body.principal is not None:
+            moments = ", ".join(quantity(value, Dim(), values) for value in body.principal)
+            parts.append(f"inertia ({moments}) kg*m^2;")
+        else:
+            parts.append(f"inertia {quantity(body.inertia, Dim(1, 2), values)};")
         parts.append("points " + ", ".join(p.name for p in body.points))
         lines += _wrap(" ".join(parts))
     return lines
@@ -85,8 +93,9 @@ def _welds(model: Model, values: list[float]) -> list[str]:
         return []
     lines = [f"welds ({len(model.welds)})"]
     for weld in model.welds:
-        holds = f"angle {quantity(weld.angle, ANGLE, values)}" if weld.rotational \
-            else "the points only (a particle)"
+        holds = "the points only (a particle)" if not weld.rotational \
+            else "their orientations as placed" if model.spatial \
+            else f"angle {quantity(weld.angle, ANGLE, values)}"
         lines += _wrap(f"  {weld.name:<12} {_ends(model, weld)}: holds {holds}")
     return lines
 
@@ -95,13 +104,27 @@ def _free_joints(model: Model, values: list[float]) -> list[str]:
     if not model.free_joints:
         return []
     lines = [f"free joints ({len(model.free_joints)})"]
-    names = ("x", "vx", "y", "vy", "angle", "omega")
+    names, dims = (_SPATIAL_FREE_NAMES, _SPATIAL_FREE_DIMS) if model.spatial \
+        else (("x", "vx", "y", "vy", "angle", "omega"), _FREE_DIMS)
     for free in model.free_joints:
         given = [f"{name} {quantity(value, dim, values)}" for name, value, dim
-                 in zip(names, free.initial, _FREE_DIMS)
+                 in zip(names, free.initial, dims)
                  if (free.turns or name not in ("angle", "omega")) and value != Num(0.0)]
         lines += _wrap_items(f"  {free.name:<12} {_ends(model, free)}; initial", given
                              or ["at rest, at its point"])
+    return lines
+
+
+def _balls(model: Model, values: list[float]) -> list[str]:
+    if not model.balls:
+        return []
+    lines = [f"ball joints ({len(model.balls)})"]
+    for ball in model.balls:
+        given = [f"{name} {quantity(value, dim, values)}" for name, value, dim
+                 in zip(_SPATIAL_FREE_NAMES[6:], ball.initial, _SPATIAL_FREE_DIMS[6:])
+                 if value != Num(0.0)]
+        lines += _wrap_items(f"  {ball.name:<12} {_ends(model, ball)}; initial", given
+                             or ["no relative turn"])
     return lines
 
 
@@ -119,6 +142,8 @@ def _springs(model: Model, values: list[float]) -> list[str]:
 
 
 def _beams(model: Model, values: list[float]) -> list[str]:
+    if model.spatial:
+        return []  # (a spatial model has none yet)
     lines = [f"beams ({len(model.beams)})"]
     for beam in model.beams:
         text = (f"  {beam.name:<12} length {quantity(beam.length, Dim(length=1), values)}, "
@@ -141,6 +166,8 @@ def _hinges(model: Model, values: list[float]) -> list[str]:
             f" + {quantity(hinge.offset, ANGLE, values)}"
         text = (f"  {hinge.name:<12} {a}.{hinge.a.point} -> {b}.{hinge.b.point}: "
                 f"theta = {sign}({b} - {a}){offset}")
+        if hinge.axis is not None:
+            text += " about (" + ", ".join(quantity(c, Dim(), values) for c in hinge.axis) + ")"
         attributes = [f"{name} {quantity(value, _HINGE_DIMS.get(name, ANGLE), values)}"
                       for name in _HINGE_ATTRIBUTES
                       if (value := getattr(hinge, name)) is not None and value != Num(0.0)]
@@ -149,6 +176,8 @@ def _hinges(model: Model, values: list[float]) -> list[str]:
 
 
 def _sliders(model: Model, values: list[float]) -> list[str]:
+    if model.spatial and not model.sliders:
+        return []
     lines = [f"sliders ({len(model.sliders)})"]
     for slider in model.sliders:
         a, b = _member_name(model, slider.a.member), _member_name(model, slider.b.member)
@@ -178,6 +207,8 @@ def _cables(model: Model, values: list[float]) -> list[str]:
 
 
 def _sizes(model: Model, values: list[float]) -> list[str]:
+    if model.spatial:
+        return _spatial_sizes(model)
     joints = len(model.hinges) + len(model.sliders)
     coordinates = 3 * len(model.bodies) + 2 * len(model.particles)
     rows = 2 * joints + sum(3 if w.rotational else 2 for w in model.welds)
@@ -192,7 +223,30 @@ def _sizes(model: Model, values: list[float]) -> list[str]:
     steps = [f"{_joint_name(model, p.kind.value, p.joint)} places "
              f"{_member_name(model, p.child)}" for p in model.placements]
     loops = [_joint_name(model, kind.value, index) for kind, index in model.loop_joints]
-    lines = ["", *_wrap(text), *_wrap("assembly: " + (", ".join(steps) or "nothing to place"))]
+    return ["", *_wrap(text), *_assembly(model)]
+
+
+def _spatial_sizes(model: Model) -> list[str]:
+    """A spatial model's coordinates and rows (codegen/spatial.py) and its mobility count."""
+    coordinates = 12 * len(model.bodies) + 3 * len(model.particles)
+    joint_rows = (5 * len(model.hinges) + 3 * len(model.balls)
+                  + sum(6 if w.rotational else 3 for w in model.welds)
+                  + sum(2 if s.b.member.kind is MemberKind.PARTICLE else 5
+                        for s in model.sliders))
+    rows = 6 * len(model.bodies) + joint_rows
+    mobility = 6 * len(model.bodies) + 3 * len(model.particles) - joint_rows
+    text = (f"coordinates {coordinates} (12 per rigid body: centre of mass and rotation matrix"
+            f"{', 3 per particle' if model.particles else ''}); constraints {rows} (6 per body, "
+            f"5 per hinge or slider, 3 per ball joint, 6 per weld); Grubler count {mobility} (rows "
+            "that are redundant raise the true mobility above it)")
+    return ["", *_wrap(text), *_assembly(model)]
+
+
+def _assembly(model: Model) -> list[str]:
+    steps = [f"{_joint_name(model, p.kind.value, p.joint)} places "
+             f"{_member_name(model, p.child)}" for p in model.placements]
+    loops = [_joint_name(model, kind.value, index) for kind, index in model.loop_joints]
+    lines = _wrap("assembly: " + (", ".join(steps) or "nothing to place"))
     if loops:
         lines += _wrap("loops closed by: " + ", ".join(loops))
     return lines
@@ -200,7 +254,7 @@ def _sizes(model: Model, values: list[float]) -> list[str]:
 
 def _joint_name(model: Model, kind: str, index: int) -> str:
     return {"hinge": model.hinges, "slider": model.sliders, "weld": model.welds,
-            "free": model.free_joints}[kind][index].name
+            "free": model.free_joints, "ball": model.balls}[kind][index].name
 
 
 def _settings(model: Model, values: list[float]) -> list[str]:

@@ -315,3 +315,31 @@ output energy = system.energy
     energy = result.output("energy")
     assert np.ptp(energy) < 10 * result.tol * energy[0]
     assert not any(peak.unique for peak in result.peak_loads.values())
+
+
+def test_a_carriage_slides_down_a_tilted_rail_as_gravity_along_it_says(tmp_path):
+    """A slider on a rail along (1, 2, -2) (unit (1, 2, -2)/3): the carriage keeps its
+    orientation and moves s = s0 + v0 t + (g . a) t^2 / 2, g . a = 9.81 * 2/3."""
+    text = """model rail spatial "A carriage on a tilted rail"
+gravity = (0, 0, -9.81) m/s^2
+ground { point start = (0.2, -0.1, 1) m }
+body carriage {
+    mass = 2 kg
+    inertia = (0.02, 0.03, 0.04) kg*m^2
+    orientation = rz(20 deg)
+    point shoe = (0.05, 0, -0.03) m
+}
+slider rail joins ground.start to carriage.shoe { axis = (1, 2, -2) }
+initial { rail = 0.1 m; rail.rate = 0.5 m/s }
+simulate { t_end = 1 s; tol = 1e-10; dt_out = 0.1 s }
+output s = rail
+output shoe_z = carriage.shoe.z
+"""
+    result = compile_text(tmp_path, "rail", text).run()
+    t = result.times
+    s = 0.1 + 0.5 * t + 9.81 * 2 / 3 * t**2 / 2
+    np.testing.assert_allclose(result.output("s"), s, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(result.output("shoe_z"), 1 - 2 / 3 * s, rtol=0, atol=1e-9)
+    turned = rot([0, 0, 1], math.radians(20))
+    np.testing.assert_allclose(rotations(result, "carriage"), np.broadcast_to(turned, (len(t), 3, 3)),
+                               rtol=0, atol=1e-10)
