@@ -125,6 +125,7 @@ def _system(module, q: np.ndarray, qd: np.ndarray, p: np.ndarray) -> np.ndarray:
 
 
 def read_result(module, r) -> Result:
+    """The whole run: every array at its n output times."""
     n = r.n
     q, qd, p = doubles(r.q, n, r.nq), doubles(r.qd, n, r.nq), doubles(r.params, module.NP)
     return Result(
@@ -140,7 +141,8 @@ def read_result(module, r) -> Result:
         residual_vel=doubles(r.residual_vel, n), residual_acc=doubles(r.residual_acc, n),
         energy_names=_names(r.energy_names, r.ne), energy=doubles(r.energy, n, r.ne),
         dissipator_names=_names(r.dissipator_names, r.nd),
-        dissipated=doubles(r.dissipated, n, r.nd), stats=_stats(r.stats), events=_records(module, r),
+        dissipated=doubles(r.dissipated, n, r.nd), stats=_stats(r.stats),
+        events=_records(module, r),
         hinge_force=doubles(r.hinge_force, n, r.nh, 2),
         hinge_torque=doubles(r.hinge_torque, n, r.nh), peak_loads=_peaks(module, r),
         deployment=_deployment(module, r.deployment), report_text=text(r.report),
