@@ -16,7 +16,8 @@ the machine's changing speed (2 shared cores) falls on all of them alike:
   study's worker runs them (`run_batch`), the CPU time of its `dep_simulate` calls (the
   solver), of its metrics and of the rest (the run's end read, the record: "recording"); then
   what the parent does with them: their checkpoint lines (JSON, written and synced a batch at
-  a time), and an N-run dataset and its NetCDF file;
+  a time), and an N-run dataset, its NetCDF file and its summary (the probe's runs over
+  again);
 * with --against TREE, the same three for the depsim installed in another git worktree (its
   .venv), and at the end whether the two studies hold the same numbers;
 * the hand-written INTELSAT V solver (tests/references/intelsat_hand.c, 0-80 s, no rows),
@@ -24,8 +25,8 @@ the machine's changing speed (2 shared cores) falls on all of them alike:
 
 The figures are medians over the rounds. "predicted" adds the fixed cost, the runs' work on
 the workers (solver, recording, metrics) and the parent's (checkpoint lines) shared by the
-cores, and the dataset and file written after the last run; what the study takes beyond it is
-scheduling and the cores' contention (with another process's work, too).
+cores, and the dataset, file and summary made after the last run; what the study takes
+beyond it is scheduling and the cores' contention (with other processes' work too).
 """
 
 from __future__ import annotations
@@ -87,7 +88,7 @@ def probe(model: Path, runs: int, count: int) -> dict:
     and file."""
     import depsim
     from depsim.runtime import runner
-    from depsim.runtime.sweep import Study, make_design
+    from depsim.runtime.sweep import Study, make_design, summarize
     from depsim.runtime.sweep import study as studies
     from depsim.runtime.sweep import worker
     from depsim.runtime.sweep.storage import Checkpoint, build_dataset, write_dataset
@@ -146,10 +147,13 @@ def probe(model: Path, runs: int, count: int) -> dict:
             built = time.perf_counter()
             write_dataset(ds, Path(folder) / "study.nc")
             written = time.perf_counter()
+            summarize(ds)
+            summarized = time.perf_counter()
     return {"solver_mean": statistics.fmean(calls), "solver_median": statistics.median(calls),
             "recording": statistics.median(rest), "metrics": statistics.median(metrics),
             "checkpoint": lines, "dataset": (built - start) / runs,
-            "netcdf": (written - built) / runs, "probed": len(calls),
+            "netcdf": (written - built) / runs, "summary": (summarized - written) / runs,
+            "probed": len(calls),
             "failed": sum(1 for r in records if r["failed"])}
 
 
@@ -242,7 +246,7 @@ def report(args, seen: dict[str, list], label: str) -> dict:
     setup = fixed - part["solver_mean"]  # the 2-run command less its runs (one a worker)
     per_worker_run = part["solver_mean"] + part["recording"] + part["metrics"] \
         + part["checkpoint"]
-    written = part["dataset"] + part["netcdf"]
+    written = part["dataset"] + part["netcdf"] + part["summary"]
     predicted = setup + args.runs * per_worker_run / workers + args.runs * written
     floor = args.runs * part["solver_mean"] / workers
     out = {"runs": args.runs, "workers": workers, "rounds": args.repeat, "study_s": study,
@@ -267,7 +271,7 @@ def report(args, seen: dict[str, list], label: str) -> dict:
     print(f"    recording (run's end, record)     {ms * part['recording']:8.3f} ms  (worker)")
     print(f"    metrics                           {ms * part['metrics']:8.3f} ms  (worker)")
     print(f"    checkpoint line                   {ms * part['checkpoint']:8.3f} ms  (parent)")
-    print(f"    dataset and NetCDF                {ms * written:8.3f} ms  (parent, after the "
+    print(f"    dataset, NetCDF, summary          {ms * written:8.3f} ms  (parent, after the "
           f"runs: {args.runs * written:.2f} s)")
     overhead = predicted - floor
     print(f"  predicted {predicted:.2f} s = solver {floor:.2f} s + everything else "
