@@ -129,7 +129,15 @@ def _simulator(config: RunConfig, module: ModuleType) -> Callable[[np.ndarray], 
     if config.simulate is None and not config.metrics and config.time_grid is None:
         from depsim.runtime.runner import RunEnds  # the runtime package, not dsl/codegen
 
-        return RunEnds(module, t_end=config.t_end, dt_out=config.dt_out, tol=config.tol).run
+        ends: list[RunEnds] = []
+
+        def run_end(p: np.ndarray):  # made at the first run: what it raises fails that run
+            if not ends:
+                ends.append(RunEnds(module, t_end=config.t_end, dt_out=config.dt_out,
+                                    tol=config.tol))
+            return ends[0].run(p)
+
+        return run_end
     simulate = config.simulate
     if simulate is None:
         from depsim.runtime import simulate
