@@ -16,10 +16,10 @@ also reads) loads without numpy, cffi or matplotlib.
 import importlib
 
 _EXPORTS = {
-    "simulate": "runner", "SolverError": "errors", "Event": "events",
+    "simulate": "runner", "RunEnds": "runner", "SolverError": "errors", "Event": "events",
     "EventHit": "events", "EventResponse": "events", "ConstraintSet": "constraints",
     "HingeLock": "constraints", "LinearConstraint": "constraints", "Result": "results",
-    "Stats": "results", "PassStats": "results", "EventRecord": "results",
+    "RunEnd": "results", "Stats": "results", "PassStats": "results", "EventRecord": "results",
     "Deployment": "loads", "HingeLoad": "loads", "LatchRecord": "loads", "PeakLoad": "loads",
     "animate": "animation", "CModule": "binding", "load_folder": "binding",
     "CBuildError": "core",

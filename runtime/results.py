@@ -237,6 +237,32 @@ class Result:
         return self.report_text.rstrip("\n")
 
 
+@dataclass(frozen=True, slots=True)
+class RunEnd:
+    """What a run leaves at its end, without its rows (`depsim.runtime.runner.RunEnds`): the
+    parameters, the events, the deployment, the peak loads, the statistics, and the outputs and
+    dissipated energies at t_end, the same numbers as the run's `Result` has. What a parameter
+    study's built-in metrics read (depsim.runtime.sweep.metrics)."""
+
+    model: str
+    parameters: np.ndarray  # (NP,) SI values used
+    t_end: float
+    output_names: tuple[str, ...]
+    outputs: np.ndarray  # (1, NOUT) SI, at t_end
+    dissipator_names: tuple[str, ...]
+    dissipated: np.ndarray  # (1, ND) J, work removed by t_end
+    stats: Stats
+    events: tuple[EventRecord, ...]
+    peak_loads: dict[str, PeakLoad]  # largest hinge loads over every step
+    deployment: Deployment
+
+    def output(self, name: str) -> np.ndarray:
+        """Output `name` at t_end, a column of one row (1,)."""
+        if name not in self.output_names:
+            raise KeyError(f"no output '{name}' (outputs: {', '.join(self.output_names)})")
+        return self.outputs[:, self.output_names.index(name)]
+
+
 def _deployment_summary(deployment: Deployment) -> dict:
     return {"deployed": deployment.deployed, "time_to_deploy": deployment.time,
             "latch_hinges": list(deployment.latch_hinges),

@@ -14,9 +14,6 @@ re-raised as it was).
 
 from __future__ import annotations
 
-import functools
-import math
-
 import numpy as np
 
 from .binding import bind
@@ -24,9 +21,9 @@ from .constraints import ConstraintSet, HingeLock, LinearConstraint
 from .core import core, ffi
 from .errors import SolverError
 from .events import EventHit, EventResponse
-from .loads import Deployment, LatchRecord, PeakLoad
 from .progress import Progress
-from .results import EventRecord, PassStats, Result, Stats
+from .reading import doubles, read_end, read_result, text
+from .results import Result, RunEnd
 
 
 def simulate(module, params: np.ndarray | None = None, t_end: float | None = None,
@@ -53,11 +50,8 @@ def simulate(module, params: np.ndarray | None = None, t_end: float | None = Non
     binding = bind(module)
     model = binding.module
     p = resolve_parameters(model, params)
-    view, library = ffi(), core()
-    settings = view.new("dep_settings *", {
-        "t_end": _setting(t_end, model.T_END), "dt_out": _setting(dt_out, model.DT_OUT),
-        "tol": _setting(tol, model.TOL), "mechanics": int(bool(mechanics)),
-        "max_steps": _setting(max_steps, 0.0), "stepping": _stepping(stepping)})
+    view = ffi()
+    settings = _settings(model, t_end, dt_out, tol, mechanics, max_steps, stepping)
     tables = input_tables(model, inputs)
     table_array = view.new("dep_input_table[]", max(len(tables), 1))
     for entry, (index, times, values) in zip(table_array, tables):
@@ -77,23 +71,75 @@ def simulate(module, params: np.ndarray | None = None, t_end: float | None = Non
     settings.progress = progress_callback = view.callback(
         "int(*)(void *, double)", report, error=1, onerror=bridge.record)
     result, error = view.new("dep_result *"), view.new("dep_error *")
-    status = None
     try:
-        with binding.running():
-            status = library.dep_simulate(binding.pointer, view.from_buffer("double[]", p),
-                                          settings, bridge.array, len(bridge.events), result,
-                                          error)
-            failure = bridge.exception or binding.failure
-        if failure is not None:
-            raise failure
-        if status != library.DEP_OK:
-            raise _exception(error)
-        return _result(model, result)
+        _run_core(binding, p, settings, bridge, result, error)
+        try:
+            return read_result(model, result)
+        finally:
+            core().dep_result_free(result)
     finally:
         bar.close()
         del progress_callback
+
+
+def _settings(model, t_end, dt_out, tol, mechanics=True, max_steps=None, stepping="auto"):
+    """A run's dep_settings (SI; None: the model's own), without inputs or progress."""
+    return ffi().new("dep_settings *", {
+        "t_end": _setting(t_end, model.T_END), "dt_out": _setting(dt_out, model.DT_OUT),
+        "tol": _setting(tol, model.TOL), "mechanics": int(bool(mechanics)),
+        "max_steps": _setting(max_steps, 0.0), "stepping": _stepping(stepping)})
+
+
+def _run_core(binding, p: np.ndarray, settings, bridge: EventBridge, result, error) -> None:
+    """One dep_simulate into `result`, which the caller reads and frees. Raises what stopped
+    the run: an exception of an event's function or callback or of a NumPy model's function
+    (or Ctrl-C in a callback) as it was raised, else the C error's; `result` then holds
+    nothing."""
+    library = core()
+    with binding.running():
+        status = library.dep_simulate(binding.pointer, ffi().from_buffer("double[]", p),
+                                      settings, bridge.array, len(bridge.events), result, error)
+        failure = bridge.exception or binding.failure
+    if failure is not None:
         if status == library.DEP_OK:
             library.dep_result_free(result)
+        raise failure
+    if status != library.DEP_OK:
+        raise _exception(error)
+
+
+class RunEnds:
+    """Runs of one model with the same settings, each read at its end alone (a `RunEnd`): a
+    parameter study's runs when nothing but its built-in metrics reads them. Each run is the
+    dep_simulate call that `simulate(module, p, t_end=..., dt_out=..., tol=...)` makes, so it
+    takes the same steps and gives the same numbers; the settings, the check that stops a
+    run (a NumPy model's function raised, Ctrl-C) and the result's structs are made once, and
+    no output row is read. One thread at a time."""
+
+    def __init__(self, module, t_end: float | None = None, dt_out: float | None = None,
+                 tol: float | None = None):
+        self.binding = binding = bind(module)
+        self.model = binding.module
+        self.bridge = bridge = EventBridge(self.model, resolve_parameters(self.model, None), ())
+        self.settings = _settings(self.model, t_end, dt_out, tol)
+
+        def check(_context, _t):
+            return int(bridge.exception is not None or binding.failure is not None)
+
+        self.settings.progress = self._check = ffi().callback(
+            "int(*)(void *, double)", check, error=1, onerror=bridge.record)
+        self._result, self._error = ffi().new("dep_result *"), ffi().new("dep_error *")
+
+    def run(self, params: np.ndarray | None = None) -> RunEnd:
+        """One run with parameters `params` (NP,) SI (None: the defaults): its `RunEnd`.
+        Raises as `simulate` does."""
+        p = resolve_parameters(self.model, params)
+        self.bridge.exception = None
+        _run_core(self.binding, p, self.settings, self.bridge, self._result, self._error)
+        try:
+            return read_end(self.model, self._result)
+        finally:
+            core().dep_result_free(self._result)
 
 
 STEPPINGS = ("auto", "explicit", "implicit")  # dep_settings.stepping, in its enum's order
@@ -137,151 +183,20 @@ def resolve_parameters(module, params) -> np.ndarray:
     return np.ascontiguousarray(p)
 
 
-def _text(value) -> str:
-    return ffi().string(value).decode("utf-8", errors="replace")
-
-
 def _exception(error) -> Exception:
     """The Python exception of a failed C run."""
     library = core()
     if error.code == library.DEP_SOLVER_ERROR:
-        return SolverError(_text(error.what), t=error.t if error.has_t else None,
-                           stage=_text(error.stage) or None, row=_text(error.row) or None,
-                           joint=_text(error.joint) or None,
+        return SolverError(text(error.what), t=error.t if error.has_t else None,
+                           stage=text(error.stage) or None, row=text(error.row) or None,
+                           joint=text(error.joint) or None,
                            residual=error.residual if error.has_residual else None,
-                           hint=_text(error.hint) or None)
+                           hint=text(error.hint) or None)
     if error.code == library.DEP_SETTINGS_ERROR:
-        return ValueError(_text(error.message))
+        return ValueError(text(error.message))
     if error.code == library.DEP_MEMORY_ERROR:
-        return MemoryError(_text(error.message))
-    return RuntimeError(_text(error.message))
-
-
-# ---- the result ---------------------------------------------------------------------------------
-
-def _array(pointer, rows: int, *widths: int) -> np.ndarray:
-    shape = (rows, *widths)
-    size = int(np.prod(shape))
-    if size == 0:
-        return np.zeros(shape)
-    return np.frombuffer(ffi().buffer(pointer, 8 * size), dtype=float).reshape(shape).copy()
-
-
-def _names(pointer, count: int) -> tuple[str, ...]:
-    return tuple(_text(pointer[i]) for i in range(count))
-
-
-def _stats(s) -> Stats:
-    def passes(p) -> PassStats:
-        return PassStats(float(p.mean), int(p.max), int(p.total))
-
-    return Stats(accepted_steps=s.accepted_steps, rejected_steps=s.rejected_steps,
-                 failed_steps=s.failed_steps, integrations=s.integrations,
-                 rhs_evaluations=s.rhs_evaluations, position=passes(s.position),
-                 velocity=passes(s.velocity), acceleration=passes(s.acceleration),
-                 cg_iterations=s.cg_iterations, factorizations=s.factorizations,
-                 max_v_pos=s.max_v_pos, max_v_vel=s.max_v_vel, max_v_acc=s.max_v_acc,
-                 min_step=s.min_step, max_step=s.max_step, events=s.events,
-                 implicit_from=_number(s.implicit_from), stiff_rate=_number(s.stiff_rate))
-
-
-def _number(value: float) -> float | None:
-    """A statistic the core leaves nan when it does not apply, as None."""
-    return None if math.isnan(value) else float(value)
-
-
-def _value(d):
-    library = core()
-    if d.kind == library.DEP_TEXT:
-        return _text(d.text)
-    if d.kind == library.DEP_BOOL:
-        return bool(d.number)
-    if d.kind == library.DEP_NONE:
-        return None
-    return float(d.number)
-
-
-def _data(record) -> dict:
-    """A record's data: entries with a member form a dict under their key."""
-    data: dict = {}
-    for i in range(record.n_data):
-        d = record.data[i]
-        key, member = _text(d.key), _text(d.member)
-        if member:
-            data.setdefault(key, {})[member] = _value(d)
-        else:
-            data[key] = _value(d)
-    return data
-
-
-@functools.cache
-def _record_kinds() -> dict[int, str]:
-    """enum dep_record_kind (depsim.h) as EventRecord.kind: DEP_RECORD_LATCH_CONTACT is
-    "latch.contact"."""
-    elements = ffi().typeof("enum dep_record_kind").elements
-    return {value: name.removeprefix("DEP_RECORD_").lower().replace("_", ".")
-            for value, name in elements.items()}
-
-
-def _records(module, r) -> tuple[EventRecord, ...]:
-    kinds, hinges = _record_kinds(), module.HINGES
-    return tuple(EventRecord(_text(e.name), float(e.t), _data(e), kinds[e.kind],
-                             hinges[e.hinge] if e.hinge >= 0 else None)
-                 for e in (r.events[k] for k in range(r.n_events)))
-
-
-def _peaks(module, r) -> dict:
-    return {h: PeakLoad(float(r.peak_loads[k].force), float(r.peak_loads[k].t_force),
-                        float(r.peak_loads[k].torque), float(r.peak_loads[k].t_torque),
-                        bool(r.peak_loads[k].unique))
-            for k, h in enumerate(module.HINGES)}
-
-
-def _optional(value: float) -> float | None:
-    return None if np.isnan(value) else float(value)
-
-
-def _deployment(module, d) -> Deployment:
-    hinges = module.HINGES
-    latches = tuple(LatchRecord(hinges[s.hinge], float(s.t), float(s.rate),
-                                _optional(s.impulse), _optional(s.energy_loss), bool(s.rigid))
-                    for s in (d.latches[k] for k in range(d.n_latches)))
-    return Deployment(tuple(hinges[d.latch_hinges[k]] for k in range(d.n_latch_hinges)),
-                      latches, None if d.deployed < 0 else bool(d.deployed),
-                      _optional(d.time), float(d.friction_energy), float(d.impact_energy))
-
-
-def _system(module, q: np.ndarray, qd: np.ndarray, p: np.ndarray) -> np.ndarray:
-    """The model's system_state (mass, centre of mass, momentum, angular momentum) at each
-    recorded state (n, NSYS)."""
-    names = tuple(getattr(module, "SYSTEM_STATE", ()))
-    if not names or not len(q):
-        return np.zeros((len(q), len(names)))
-    return np.array([module.system_state(a, b, p) for a, b in zip(q, qd)], dtype=float)
-
-
-def _result(module, r) -> Result:
-    n = r.n
-    q, qd, p = _array(r.q, n, r.nq), _array(r.qd, n, r.nq), _array(r.params, module.NP)
-    return Result(
-        model=module.MODEL_NAME, method="iterative",
-        parameter_names=tuple(module.PARAMETERS), parameters=p,
-        tol=r.tol, constraint_tol=r.constraint_tol, t_end=r.t_end, dt_out=r.dt_out,
-        times=_array(r.times, n), coordinate_names=tuple(module.COORDINATES), q=q, qd=qd,
-        constraint_names=_names(r.row_names, r.n_rows),
-        lam=_array(r.lam, n, r.n_rows), hinge_names=tuple(module.HINGES),
-        hinge_angles=_array(r.hinge_angles, n, r.nh), hinge_rates=_array(r.hinge_rates, n, r.nh),
-        output_names=tuple(module.OUTPUTS), output_units=tuple(module.OUTPUT_UNITS),
-        outputs=_array(r.outputs, n, r.nout), residual_pos=_array(r.residual_pos, n),
-        residual_vel=_array(r.residual_vel, n), residual_acc=_array(r.residual_acc, n),
-        energy_names=_names(r.energy_names, r.ne), energy=_array(r.energy, n, r.ne),
-        dissipator_names=_names(r.dissipator_names, r.nd),
-        dissipated=_array(r.dissipated, n, r.nd), stats=_stats(r.stats), events=_records(module, r),
-        hinge_force=_array(r.hinge_force, n, r.nh, 3),
-        hinge_torque=_array(r.hinge_torque, n, r.nh), peak_loads=_peaks(module, r),
-        deployment=_deployment(module, r.deployment), report_text=_text(r.report),
-        system_names=tuple(getattr(module, "SYSTEM_STATE", ())),
-        system=_system(module, q, qd, p))
+        return MemoryError(text(error.message))
+    return RuntimeError(text(error.message))
 
 
 # ---- Python events -------------------------------------------------------------------------------
@@ -334,7 +249,7 @@ class EventBridge:
             return 1
 
     def _vector(self, pointer) -> np.ndarray:
-        return _array(pointer, self.module.NQ)
+        return doubles(pointer, self.module.NQ)
 
     def _function(self, event):
         def function(_context, t, q, qd, rows, out):
@@ -342,7 +257,7 @@ class EventBridge:
                 q_arr, qd_arr = self._vector(q), self._vector(qd)
                 if event.multipliers:
                     r = rows[0]
-                    lam = {_text(r.names[i]): float(r.lam[i]) for i in range(r.nc)}
+                    lam = {text(r.names[i]): float(r.lam[i]) for i in range(r.nc)}
                     out[0] = float(event.function(t, q_arr, qd_arr, lam))
                 else:
                     out[0] = float(event.function(t, q_arr, qd_arr))
@@ -361,7 +276,7 @@ class EventBridge:
         library, rows = core(), []
         for i in range(hit.n_added):
             r = hit.added[i]
-            name, joint = _text(r.name), _text(r.joint)
+            name, joint = text(r.name), text(r.joint)
             if r.kind == library.DEP_ROW_HINGE_LOCK:
                 rows.append(HingeLock(self.module, self.module.HINGES[r.hinge], float(r.angle),
                                       name=name, joint=joint))
@@ -371,7 +286,7 @@ class EventBridge:
 
     def _respond(self, event, hit, out) -> None:
         info = EventHit(event.name, hit.t, self._vector(hit.q), self._vector(hit.qd),
-                        _array(hit.lam, hit.nc), self._constraints(hit), self.module,
+                        doubles(hit.lam, hit.nc), self._constraints(hit), self.module,
                         self.p.copy())
         response = (event.callback(info) if event.callback else None) or EventResponse()
         if response.records is not None:
@@ -427,9 +342,9 @@ class EventBridge:
                             f"{type(row).__name__}")
 
 
-def _bounded(text: str) -> bytes:
+def _bounded(name: str) -> bytes:
     """A name as the C side stores it (DEP_NAME_MAX - 1 bytes at most)."""
-    return text.encode("utf-8")[:core().DEP_NAME_MAX - 1]
+    return name.encode("utf-8")[:core().DEP_NAME_MAX - 1]
 
 
-__all__ = ["simulate", "resolve_parameters", "EventBridge"]
+__all__ = ["simulate", "RunEnds", "resolve_parameters", "EventBridge"]

@@ -80,6 +80,8 @@ def result_events(result) -> list[tuple[str, float]]:
 
 
 def _is_number(v) -> bool:
+    if type(v) in (float, int, bool):  # most values: without the ABC's isinstance
+        return True
     return isinstance(v, (numbers.Real, np.bool_)) and not isinstance(v, str)
 
 

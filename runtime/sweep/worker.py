@@ -121,12 +121,32 @@ class RunConfig:
     simulate: Callable | None = None  # None: depsim.runtime.simulate
 
 
-def _simulator(config: RunConfig) -> Callable:
-    if config.simulate is not None:
-        return config.simulate
-    from depsim.runtime import simulate  # the runtime package, not dsl/codegen
+def _simulator(config: RunConfig, module: ModuleType) -> Callable[[np.ndarray], object]:
+    """f(p) -> what the run's metrics read. When the built-in metrics alone read the runs
+    (no metrics of the study's own, no time grid, depsim's own simulate), the run's end alone
+    (`RunEnds`: the same C call, the same numbers, no rows read and no Result built); else the
+    whole Result of `config.simulate`, or of depsim.runtime.simulate."""
+    if config.simulate is None and not config.metrics and config.time_grid is None:
+        from depsim.runtime.runner import RunEnds  # the runtime package, not dsl/codegen
 
-    return simulate
+        ends: list[RunEnds] = []
+
+        def run_end(p: np.ndarray):  # made at the first run: what it raises fails that run
+            if not ends:
+                ends.append(RunEnds(module, t_end=config.t_end, dt_out=config.dt_out,
+                                    tol=config.tol))
+            return ends[0].run(p)
+
+        return run_end
+    simulate = config.simulate
+    if simulate is None:
+        from depsim.runtime import simulate
+
+    def run(p: np.ndarray):
+        return simulate(module, p, t_end=config.t_end, dt_out=config.dt_out, tol=config.tol,
+                        progress=False)
+
+    return run
 
 
 def _sample(times: np.ndarray, values: np.ndarray, grid: np.ndarray) -> np.ndarray:
@@ -140,17 +160,17 @@ def _sample(times: np.ndarray, values: np.ndarray, grid: np.ndarray) -> np.ndarr
 
 
 def run_one(module: ModuleType, config: RunConfig, index: int, params: np.ndarray,
-            simulate: Callable | None = None) -> dict:
+            simulate: Callable[[np.ndarray], object] | None = None) -> dict:
     """Simulate one parameter vector and measure it. Never raises for a failing run: the
-    record carries the error text and no metric values (NaN later)."""
+    record carries the error text and no metric values (NaN later). simulate: f(p), as
+    `_simulator` makes it (None: made for this run)."""
     from .metrics import result_output, result_times
 
-    simulate = simulate or _simulator(config)
+    simulate = simulate or _simulator(config, module)
     p = np.array(params, dtype=float)
     start = time.perf_counter()
     try:
-        result = simulate(module, p, t_end=config.t_end, dt_out=config.dt_out, tol=config.tol,
-                          progress=False)
+        result = simulate(p)
     except Exception as exc:  # SolverError, a bad sample (negative mass), anything: recorded
         return {"run": int(index), "failed": True, "error": _error_text(exc), "values": {},
                 "wall": time.perf_counter() - start, "series": None}
@@ -177,7 +197,7 @@ def run_batch(ref: ModuleRef, config: RunConfig, indices: Sequence[int],
               params: np.ndarray) -> list[dict]:
     """Run rows `params` (runs x NP) with run numbers `indices`: one record per run."""
     module = load_module(ref)
-    simulate = _simulator(config)
+    simulate = _simulator(config, module)
     return [run_one(module, config, i, row, simulate) for i, row in zip(indices, params)]
 
 

@@ -194,6 +194,16 @@ def test_failing_runs_are_recorded_and_the_study_goes_on(module_path, tmp_path):
     assert f"{bad.sum()} failed" in text and "mass must be positive" in text
 
 
+def test_a_module_the_runtime_cannot_run_fails_each_run_not_the_study(module_path):
+    """Without metrics of its own a study reads each run's end (RunEnds); a module the
+    integrator core cannot bind (OSCILLATOR has no model functions) fails every run with the
+    reason, as a plain simulate does, and the study completes."""
+    d = design(module_path, runs=3)
+    ds = run_study(Study(module_path, d, t_end=2.0), scheduler="inline")
+    assert ds["failed"].all()
+    assert all(error.startswith("TypeError: ") for error in ds["error"].values)
+
+
 def test_a_run_that_kills_its_worker_is_recorded_as_failed(module_path):
     d = design(module_path, runs=12)
     matrix = d.matrix.copy()

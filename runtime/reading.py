@@ -1,0 +1,170 @@
+"""A run's `dep_result` (runtime/c/include/depsim.h) read into Python: the whole `Result`
+(`read_result`), or the run's end alone (`read_end`: what a parameter study's metrics read).
+
+Every number is copied out of the C result, which the caller then frees.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+
+import numpy as np
+
+from .core import core, ffi
+from .loads import Deployment, LatchRecord, PeakLoad
+from .results import EventRecord, PassStats, Result, RunEnd, Stats
+
+
+def text(value) -> str:
+    """A C string as Python text."""
+    return ffi().string(value).decode("utf-8", errors="replace")
+
+
+def doubles(pointer, rows: int, *widths: int) -> np.ndarray:
+    """A copy of the C array of doubles at `pointer`, of shape (rows, *widths)."""
+    shape = (rows, *widths)
+    size = int(np.prod(shape))
+    if size == 0:
+        return np.zeros(shape)
+    return np.frombuffer(ffi().buffer(pointer, 8 * size), dtype=float).reshape(shape).copy()
+
+
+def _names(pointer, count: int) -> tuple[str, ...]:
+    return tuple(text(pointer[i]) for i in range(count))
+
+
+def _stats(s) -> Stats:
+    def passes(p) -> PassStats:
+        return PassStats(float(p.mean), int(p.max), int(p.total))
+
+    return Stats(accepted_steps=s.accepted_steps, rejected_steps=s.rejected_steps,
+                 failed_steps=s.failed_steps, integrations=s.integrations,
+                 rhs_evaluations=s.rhs_evaluations, position=passes(s.position),
+                 velocity=passes(s.velocity), acceleration=passes(s.acceleration),
+                 cg_iterations=s.cg_iterations, factorizations=s.factorizations,
+                 max_v_pos=s.max_v_pos, max_v_vel=s.max_v_vel, max_v_acc=s.max_v_acc,
+                 min_step=s.min_step, max_step=s.max_step, events=s.events,
+                 implicit_from=_number(s.implicit_from), stiff_rate=_number(s.stiff_rate))
+
+
+def _number(value: float) -> float | None:
+    """A statistic the core leaves nan when it does not apply, as None."""
+    return None if math.isnan(value) else float(value)
+
+
+def _value(d, library):
+    kind = d.kind
+    if kind == library.DEP_TEXT:
+        return text(d.text)
+    if kind == library.DEP_BOOL:
+        return bool(d.number)
+    if kind == library.DEP_NONE:
+        return None
+    return float(d.number)
+
+
+def _data(record) -> dict:
+    """A record's data: entries with a member form a dict under their key."""
+    data: dict = {}
+    library, string = core(), ffi().string
+    for i in range(record.n_data):
+        d = record.data[i]
+        key, member = string(d.key).decode("utf-8", "replace"), string(d.member)
+        if member:
+            data.setdefault(key, {})[member.decode("utf-8", "replace")] = _value(d, library)
+        else:
+            data[key] = _value(d, library)
+    return data
+
+
+@functools.cache
+def _record_kinds() -> dict[int, str]:
+    """enum dep_record_kind (depsim.h) as EventRecord.kind: DEP_RECORD_LATCH_CONTACT is
+    "latch.contact"."""
+    elements = ffi().typeof("enum dep_record_kind").elements
+    return {value: name.removeprefix("DEP_RECORD_").lower().replace("_", ".")
+            for value, name in elements.items()}
+
+
+def _records(module, r) -> tuple[EventRecord, ...]:
+    kinds, hinges = _record_kinds(), module.HINGES
+    return tuple(EventRecord(text(e.name), float(e.t), _data(e), kinds[e.kind],
+                             hinges[e.hinge] if e.hinge >= 0 else None)
+                 for e in (r.events[k] for k in range(r.n_events)))
+
+
+def _peaks(module, r) -> dict:
+    return {h: PeakLoad(float(r.peak_loads[k].force), float(r.peak_loads[k].t_force),
+                        float(r.peak_loads[k].torque), float(r.peak_loads[k].t_torque),
+                        bool(r.peak_loads[k].unique))
+            for k, h in enumerate(module.HINGES)}
+
+
+def _optional(value: float) -> float | None:
+    return None if np.isnan(value) else float(value)
+
+
+def _deployment(module, d) -> Deployment:
+    hinges = module.HINGES
+    latches = tuple(LatchRecord(hinges[s.hinge], float(s.t), float(s.rate),
+                                _optional(s.impulse), _optional(s.energy_loss), bool(s.rigid))
+                    for s in (d.latches[k] for k in range(d.n_latches)))
+    return Deployment(tuple(hinges[d.latch_hinges[k]] for k in range(d.n_latch_hinges)),
+                      latches, None if d.deployed < 0 else bool(d.deployed),
+                      _optional(d.time), float(d.friction_energy), float(d.impact_energy))
+
+
+def _system(module, q: np.ndarray, qd: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """The model's system_state (mass, centre of mass, momentum, angular momentum) at each
+    recorded state (n, NSYS)."""
+    names = tuple(getattr(module, "SYSTEM_STATE", ()))
+    if not names or not len(q):
+        return np.zeros((len(q), len(names)))
+    return np.array([module.system_state(a, b, p) for a, b in zip(q, qd)], dtype=float)
+
+
+def read_result(module, r) -> Result:
+    """The whole run: every array at its n output times."""
+    n = r.n
+    q, qd, p = doubles(r.q, n, r.nq), doubles(r.qd, n, r.nq), doubles(r.params, module.NP)
+    return Result(
+        model=module.MODEL_NAME, method="iterative",
+        parameter_names=tuple(module.PARAMETERS), parameters=p,
+        tol=r.tol, constraint_tol=r.constraint_tol, t_end=r.t_end, dt_out=r.dt_out,
+        times=doubles(r.times, n), coordinate_names=tuple(module.COORDINATES), q=q, qd=qd,
+        constraint_names=_names(r.row_names, r.n_rows),
+        lam=doubles(r.lam, n, r.n_rows), hinge_names=tuple(module.HINGES),
+        hinge_angles=doubles(r.hinge_angles, n, r.nh), hinge_rates=doubles(r.hinge_rates, n, r.nh),
+        output_names=tuple(module.OUTPUTS), output_units=tuple(module.OUTPUT_UNITS),
+        outputs=doubles(r.outputs, n, r.nout), residual_pos=doubles(r.residual_pos, n),
+        residual_vel=doubles(r.residual_vel, n), residual_acc=doubles(r.residual_acc, n),
+        energy_names=_names(r.energy_names, r.ne), energy=doubles(r.energy, n, r.ne),
+        dissipator_names=_names(r.dissipator_names, r.nd),
+        dissipated=doubles(r.dissipated, n, r.nd), stats=_stats(r.stats),
+        events=_records(module, r),
+        hinge_force=doubles(r.hinge_force, n, r.nh, 3),
+        hinge_torque=doubles(r.hinge_torque, n, r.nh), peak_loads=_peaks(module, r),
+        deployment=_deployment(module, r.deployment), report_text=text(r.report),
+        system_names=tuple(getattr(module, "SYSTEM_STATE", ())),
+        system=_system(module, q, qd, p))
+
+
+def read_end(module, r) -> RunEnd:
+    """The run's end alone: no output row but the last one's outputs and dissipated work."""
+    return RunEnd(model=module.MODEL_NAME, parameters=doubles(r.params, module.NP),
+                  t_end=r.t_end, output_names=tuple(module.OUTPUTS),
+                  outputs=_last_row(r.outputs, r.n, r.nout),
+                  dissipator_names=_names(r.dissipator_names, r.nd),
+                  dissipated=_last_row(r.dissipated, r.n, r.nd), stats=_stats(r.stats),
+                  events=_records(module, r), peak_loads=_peaks(module, r),
+                  deployment=_deployment(module, r.deployment))
+
+
+def _last_row(pointer, rows: int, width: int) -> np.ndarray:
+    """The last of `rows` rows of `width` doubles, as an array (1, width); (0, width) when
+    there is none."""
+    return doubles(pointer + (rows - 1) * width, 1, width) if rows else np.zeros((0, width))
+
+
+__all__ = ["read_result", "read_end", "text", "doubles"]
