@@ -222,25 +222,17 @@ class Simulator:
         return p
 
     def outlines(self, params=None) -> dict[str, np.ndarray]:
-        """Each rigid member's points in its own frame (m, from its centre of mass) for the
-        parameter vector `params` (default: the defaults): what `depsim.runtime.animate`
-        draws its outline through. A bar's ends and declared points, a body's declared
-        points and its centre; a body of fewer than two points also gets the corners of a
-        square of half-side its radius of gyration, sqrt(inertia / mass)."""
-        from depsim.dsl.evaluate import EvaluationError, evaluate
+        """Each rigid member's points in its own frame (m, from its centre of mass; (k, 2),
+        or (k, 3) in a spatial model, whose "ground" entry holds the ground's declared
+        points) for the parameter vector `params` (default: the defaults): what
+        `depsim.runtime.animate` draws its outline through (`depsim.outlines.member_points`:
+        a bar's ends, declared points, the centre; a body of fewer than three points gets
+        the corners of a square of its radius of gyration, or in 3-D of the uniform box of
+        its principal moments)."""
+        from depsim.outlines import member_points
 
-        p = self.defaults if params is None else np.asarray(params, dtype=float)
-        out = {}
-        for body in self.model.ir.bodies:
-            try:
-                points = [(evaluate(point.x, p), evaluate(point.y, p)) for point in body.points]
-                if len({*points, (0.0, 0.0)}) < 3 and body.kind != "bar":
-                    radius = math.sqrt(evaluate(body.inertia, p) / evaluate(body.mass, p))
-                    points += [(sx * radius, sy * radius) for sx in (-1, 1) for sy in (-1, 1)]
-            except (EvaluationError, ValueError, ZeroDivisionError):
-                continue  # the animation reconstructs this member from the module
-            out[body.name] = np.array([(0.0, 0.0)] + points)
-        return out
+        return member_points(self.model.ir, self.defaults if params is None
+                             else np.asarray(params, dtype=float))
 
     def run(self, set: Mapping[str, float | str] | None = None, t_end: float | None = None,
             dt_out: float | None = None, tol: float | None = None, progress: bool = False,
