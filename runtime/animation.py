@@ -60,23 +60,43 @@ def _writer(path: str | os.PathLike, fps: float):
 
 
 def animate(result, module, path, fps: float = 20.0, max_frames: int = MAX_FRAMES,
-            params=None, outlines=None) -> int:
+            params=None, outlines=None, view=None) -> int:
     """Write an animation of `result` (a Result of `module`) to `path`, a GIF or an MP4 by its
     extension (OutputError for another, or for an MP4 without ffmpeg); returns the frame count.
 
     Frames are the output times, thinned evenly to at most `max_frames` (the last always
     included); `fps` frames per second. params: the module parameters (default: the run's).
     outlines: {member: (k, 2) points in its frame (m, from its centre of mass)}, else the
-    points are reconstructed from the module (module docstring).
+    points are reconstructed from the module (module docstring). A spatial model is drawn in
+    3-D (runtime/animation3d.py: outlines of (k, 3) points) from `view`, (elevation, azimuth)
+    in degrees (default the isometric view, animation3d.DEFAULT_VIEW); a planar model takes
+    no view (ValueError).
     The file is written through `output.atomic_path`, so a failure leaves no partial file.
     """
+    from .animation3d import SpatialScene, is_spatial
+
     writer = _writer(path, fps)
+    p = np.asarray(result.parameters if params is None else params, dtype=float)
+    frames = _frame_indices(len(result.times), max_frames)
+    if is_spatial(module):
+        scene = SpatialScene(result, module, p, frames, outlines, view)
+        figure, draw = scene.figure, scene.draw
+    elif view is not None:
+        raise ValueError("a view is for a spatial model: a planar one is drawn in its plane")
+    else:
+        figure, draw = _planar_scene(result, Geometry(module, p, outlines), frames)
+    with atomic_path(path) as tmp, writer.saving(figure, tmp, dpi=DPI):
+        for k in range(len(frames)):  # one draw per frame (FuncAnimation draws twice)
+            draw(k)
+            writer.grab_frame()
+    return len(frames)
+
+
+def _planar_scene(result, geometry: Geometry, frames: list[int]):
+    """The planar animation's figure and its draw(k), which shows frame k."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    p = np.asarray(result.parameters if params is None else params, dtype=float)
-    geometry = Geometry(module, p, outlines)
-    frames = _frame_indices(len(result.times), max_frames)
     shapes = [geometry.shapes(result.q[i]) for i in frames]
     drawn = [geometry.outlines(result.q[i]) for i in frames]
     states = [_hinge_states(result, i) for i in frames]
@@ -118,11 +138,7 @@ def animate(result, module, path, fps: float = 20.0, max_frames: int = MAX_FRAME
         title.set_text(f"{result.model}   t = {result.times[frames[k]]:.2f} s")
         return [*filter(None, bodies + lines), *markers.values(), title]
 
-    with atomic_path(path) as tmp, writer.saving(figure, tmp, dpi=DPI):
-        for k in range(len(frames)):  # one draw per frame (FuncAnimation draws twice)
-            draw(k)
-            writer.grab_frame()
-    return len(frames)
+    return figure, draw
 
 
 def _frame_indices(n: int, max_frames: int) -> list[int]:
