@@ -133,6 +133,7 @@ def _parser() -> argparse.ArgumentParser:
                                                    ".pdf, .svg, ...: the extension decides)")
     run.add_argument("--animate", metavar="GIF", help="animate the mechanism moving (.gif; "
                                                       ".mp4 with ffmpeg installed)")
+    _add_view(run, "--animate")
     _add_elements(run)
     run.set_defaults(command=_run)
 
@@ -158,6 +159,7 @@ def _parser() -> argparse.ArgumentParser:
                                                      "...: the extension decides)")
     modes.add_argument("--animate", metavar="GIF", help="the modes oscillating, one after the "
                                                         "other (.gif; .mp4 with ffmpeg)")
+    _add_view(modes, "--plot and --animate")
     _add_elements(modes)
     modes.set_defaults(command=_modes)
 
@@ -192,6 +194,35 @@ def _parser() -> argparse.ArgumentParser:
     _add_elements(sweep)
     sweep.set_defaults(command=_sweep)
     return parser
+
+
+def _add_view(parser: argparse.ArgumentParser, pictures: str) -> None:
+    parser.add_argument("--view", type=_view, metavar="ELEV,AZIM",
+                        help=f"the 3-D view of a spatial model's {pictures}: elevation ELEV "
+                             "and azimuth AZIM (deg) about the upright axis, the one against "
+                             "gravity (z without gravity); default 35.26,-45, the isometric "
+                             "view (a negative ELEV: --view=-20,30)")
+
+
+def _view(text: str) -> tuple[float, float]:
+    from depsim.runtime.animation3d import check_view
+
+    try:
+        return check_view(text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not ELEV,AZIM: two numbers in degrees, "
+                                         "e.g. 30,-60") from None
+
+
+def _check_view(args, model, pictures: tuple[str, ...]) -> None:
+    """--view only with a picture it sets and for a spatial model."""
+    if args.view is None:
+        return
+    if not any(getattr(args, name.lstrip("-")) for name in pictures):
+        raise _usage(f"--view sets the 3-D view of {' or '.join(pictures)}: give one")
+    if not model.ir.spatial:
+        raise _usage(f"--view: '{model.name}' is a planar model, drawn in its plane; the "
+                     "view is for a spatial model")
 
 
 def _add_elements(parser: argparse.ArgumentParser) -> None:
@@ -373,6 +404,7 @@ def _run(args) -> int:
                              f"a value (--set {given}=...): give one")
     tables = _input_tables(args.input)
     model = _load(args)
+    _check_view(args, model, ("--animate",))
     _check_output_times(model, args)
     # a free-flying model: its momentum and energy balance in the summary and the report
     floating = bool(model.ir.free_joints) or any(w.code == "W001" for w in model.ir.warnings)
@@ -394,7 +426,7 @@ def _run(args) -> int:
         if args.animate:
             from depsim.runtime import animate
             animate(result, sim.module, args.animate,
-                    outlines=sim.outlines(result.parameters))
+                    outlines=sim.outlines(result.parameters), view=args.view)
     print(result.report())
     if floating and result.system_line():
         print(result.system_line())
@@ -415,6 +447,7 @@ def _modes(args) -> int:
     parse_moment(args.at)  # a bad --at before anything is compiled
     settings = _settings(args.set)
     model = _load(args)
+    _check_view(args, model, ("--plot", "--animate"))
     sim = model.compile(target=args.target)
     found = sim.modes(at=args.at, count=args.count, set=settings, t_end=args.t_end,
                       tol=args.tol)
@@ -424,10 +457,12 @@ def _modes(args) -> int:
             found.to_json(args.json)
         if args.plot:
             from depsim.runtime.mode_figures import plot_modes
-            plot_modes(found, sim.module, args.plot, p, outlines=sim.outlines(p))
+            plot_modes(found, sim.module, args.plot, p, outlines=sim.outlines(p),
+                       view=args.view)
         if args.animate:
             from depsim.runtime.mode_figures import animate_modes
-            animate_modes(found, sim.module, args.animate, p, outlines=sim.outlines(p))
+            animate_modes(found, sim.module, args.animate, p, outlines=sim.outlines(p),
+                          view=args.view)
     print(found.table())
     return EXIT_OK
 
