@@ -42,8 +42,8 @@ SANITIZE_FLAGS = ("-fsanitize=address,undefined", "-fno-omit-frame-pointer")
 VARIABLES_FILE = "fmu_variables.c"  # generated (templates/fmu/fmu_variables.c.j2)
 INDEPENDENT = "time"
 
-# Per hinge, the Real observables (suffix, C kind, unit, description) and, for a hinge with a
-# latch, the Boolean `<hinge>.latched`.
+# Per hinge, the Real observables (suffix, C kind, unit, description; force_z in a spatial
+# model only) and, for a hinge with a latch, the Boolean `<hinge>.latched`.
 HINGE_OBSERVABLES = (
     ("angle", "FMU_ANGLE", "rad", "angle of hinge {h}"),
     ("rate", "FMU_RATE", "rad/s", "angle rate of hinge {h}"),
@@ -51,6 +51,8 @@ HINGE_OBSERVABLES = (
      "force on member b from member a at hinge {h}, x (ground frame)"),
     ("force_y", "FMU_FORCE_Y", "N",
      "force on member b from member a at hinge {h}, y (ground frame)"),
+    ("force_z", "FMU_FORCE_Z", "N",
+     "force on member b from member a at hinge {h}, z (ground frame)"),
     ("torque", "FMU_TORQUE", "N*m",
      "lock torque of hinge {h} on member b (latched or at a stop; 0 when free)"),
 )
@@ -244,6 +246,8 @@ def fmu_view(model: ir.Model, m: ModuleView, source_files: tuple[str, ...] = ())
     latches = {h.name for h in model.hinges if h.latch is not None}
     for h, hinge in enumerate(tables["HINGES"]):
         for suffix, kind, unit, what in HINGE_OBSERVABLES:
+            if suffix == "force_z" and not model.spatial:
+                continue
             v.add(f"{hinge}.{suffix}", "Real", "output", "continuous", kind, h, unit=unit,
                   initial="calculated", description=what.format(h=hinge))
         if hinge in latches:

@@ -96,7 +96,7 @@ static void clear_results(fmu_instance *fmu)
     for (int j = 0; j < MODEL_NOUT; ++j)
         fmu->outputs[j] = NAN;
     for (int h = 0; h < MODEL_NH; ++h) {
-        dep_hinge_state unknown = {NAN, NAN, NAN, NAN, NAN, 0, 0};
+        dep_hinge_state unknown = {NAN, NAN, NAN, NAN, NAN, NAN, 0, 0};
         fmu->hinges[h] = unknown;
     }
 }

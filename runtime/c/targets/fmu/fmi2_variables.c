@@ -34,6 +34,7 @@ static double hinge_value(const dep_hinge_state *hinge, enum fmu_kind kind)
     case FMU_RATE: return hinge->rate;
     case FMU_FORCE_X: return hinge->force_x;
     case FMU_FORCE_Y: return hinge->force_y;
+    case FMU_FORCE_Z: return hinge->force_z;
     case FMU_TORQUE: return hinge->torque;
     default: return NAN;
     }

@@ -19,6 +19,7 @@ enum fmu_kind {
     FMU_RATE,
     FMU_FORCE_X,
     FMU_FORCE_Y,
+    FMU_FORCE_Z,
     FMU_TORQUE,
     FMU_LATCHED
 };
