@@ -378,6 +378,29 @@ class SpatialKinematics:
         offset = self.spring_offset(index)
         return sympy.sqrt(dot(offset, offset))
 
+    def reaction_moment(self, kind: str, index: int, lam: dict[str, sympy.Expr]) -> Vector3:
+        """The moment on member B from member A about the joint's point (world frame, N m)
+        that the joint's rows carry, with M q'' = f - Phi_q^T lambda: a hinge's axis rows
+        give lambda_2 e - lambda_1 f (e, f its normals in the world; (a, e, f)
+        right-handed), normal to its axis (the torque about the axis, a latch's or a stop's,
+        is its `torque`); a weld's rows rx, ry, rz give the sum of lambda_k c_k (c_k the
+        columns of R_A R0); a ball joint carries none."""
+        zero = sympy.Integer(0)
+        if kind == "ball":
+            return (zero, zero, zero)
+        if kind == "weld":
+            weld = self.model.welds[index]
+            if not weld.rotational:
+                return (zero, zero, zero)
+            target = self.rotation(weld.a.member) \
+                * self.relative_orientation(weld.a.member, weld.b.member)
+            return tuple(sympy.Add(*(lam[f"r{axis}"] * target[i, k]
+                                     for k, axis in enumerate("xyz"))) for i in range(3))
+        hinge, frame = self.model.hinges[index], self.hinge_frame(index)
+        rotation = self.rotation(hinge.a.member)
+        e, f = times(rotation, frame.e), times(rotation, frame.f)
+        return tuple(lam["axis_2"] * e[i] - lam["axis_1"] * f[i] for i in range(3))
+
     # -- the whole system ------------------------------------------------------------------
 
     def rigid_modes(self) -> tuple[list[list], list[list]]:

@@ -116,6 +116,11 @@ class OutputScope:
             return {"force": law.force, "length": law.length, "rate": law.rate}[quantity]
         joint = {"hinge": self.kin.model.hinges, "weld": self.kin.model.welds,
                  "ball": self.kin.model.balls}[kind][index]
+        if quantity.startswith("moment"):
+            moment = self.kin.reaction_moment(kind, index, self._row_multipliers(joint.name))
+            if quantity == "moment":
+                return sympy.sqrt(sympy.Add(*(value**2 for value in moment)))
+            return moment["xyz".index(quantity[-1])]
         if quantity == "torque":
             if kind == "hinge":
                 return self.w[index]
@@ -125,6 +130,11 @@ class OutputScope:
         force = {f"force_{axis}": self.lam[self.rows.rows[(joint.name, axis)]] for axis in axes}
         force["force"] = sympy.sqrt(sympy.Add(*(value**2 for value in force.values())))
         return force[quantity]
+
+    def _row_multipliers(self, joint: str) -> dict[str, sympy.Expr]:
+        """A joint's multipliers by their rows' components (x, axis_1, rx, ...)."""
+        return {component: self.lam[row] for (name, component), row in self.rows.rows.items()
+                if name == joint}
 
     # the system
     def _rigid(self):

@@ -40,7 +40,9 @@ SYSTEM_QUANTITIES = {
 POINT_AXES = {"x": LENGTH, "y": LENGTH, "vx": VELOCITY, "vy": VELOCITY}
 # A spatial model's joints carry a 3-D reaction force (their rows x, y, z); a hinge its lock
 # torque about its axis.
-SPATIAL_REACTIONS = {"force_x": FORCE, "force_y": FORCE, "force_z": FORCE, "force": FORCE}
+SPATIAL_REACTIONS = {"force_x": FORCE, "force_y": FORCE, "force_z": FORCE, "force": FORCE,
+                     "moment_x": TORQUE, "moment_y": TORQUE, "moment_z": TORQUE,
+                     "moment": TORQUE}
 SPATIAL_LOADS = {"hinge": {**SPATIAL_REACTIONS, "torque": TORQUE}, "weld": SPATIAL_REACTIONS,
                  "ball": SPATIAL_REACTIONS, "spring": LOADS["spring"]}
 # A spatial model's: positions and velocities have z; a body's orientation is its rotation

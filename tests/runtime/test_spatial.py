@@ -343,3 +343,32 @@ output shoe_z = carriage.shoe.z
     turned = rot([0, 0, 1], math.radians(20))
     np.testing.assert_allclose(rotations(result, "carriage"), np.broadcast_to(turned, (len(t), 3, 3)),
                                rtol=0, atol=1e-10)
+
+
+@pytest.mark.parametrize("joint", ["hinge h joins ground.origin to arm.root { axis = (0, 0, 1) }",
+                                   "weld h joins ground.origin to arm.root { }"])
+def test_a_joint_holding_a_body_out_carries_its_weight_and_moment(tmp_path, joint):
+    """A 2 kg body whose centre of mass is 0.5 m out along x from its joint: the force on it
+    from the ground is its weight, up; the moment about the joint is -(0.5 x) x (-m g z),
+    (0, -m g 0.5, 0): a hinge about z carries it by its axis rows, a weld by its turn rows."""
+    text = f"""model held spatial "A body held out"
+gravity = (0, 0, -9.81) m/s^2
+body arm {{
+    mass = 2 kg
+    inertia = (0.01, 0.2, 0.2) kg*m^2
+    point root = (-0.5, 0, 0) m
+}}
+{joint}
+simulate {{ t_end = 0.2 s; tol = 1e-9; dt_out = 0.1 s }}
+output fz = h.force_z
+output mx = h.moment_x
+output my = h.moment_y
+output mz = h.moment_z
+output m = h.moment
+"""
+    result = compile_text(tmp_path, "held", text).run()
+    np.testing.assert_allclose(result.output("fz"), 2 * 9.81, rtol=1e-9)
+    np.testing.assert_allclose(result.output("my"), -2 * 9.81 * 0.5, rtol=1e-9)
+    np.testing.assert_allclose(result.output("m"), 2 * 9.81 * 0.5, rtol=1e-9)
+    for name in ("mx", "mz"):
+        assert np.max(np.abs(result.output(name))) < 1e-9
