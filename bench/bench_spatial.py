@@ -27,12 +27,14 @@ compile  Derive + generate + C compile of the N-body chain (--compile-bodies, de
          command again, from the cache. Compared against: the issue's goal, under 30 s cold
          for 100 bodies.
 intelsat bench/models/intelsat5_spatial.dep (examples/intelsat5.dep written spatially: the same
-         parameters, every hinge axis along z) against examples/intelsat5.dep, 0-70 s at tol
-         1e-8 without rows (--dt-out 70), standalone programs, medians of --repeat whole
-         processes run interleaved; and 0-50 s, before the first latch. Printed: the time
-         ratio (the issue's goal: under 5), steps and force evaluations, the latch times side
-         by side, and each model's largest angle error over 0-50 s against the hand-written
-         joint-coordinate solver (tests/references/intelsat_hand.c at tol 1e-13).
+         parameters, every hinge axis along z; the members as plates, and by --set as thin
+         bars and with equal moments, which the planar motion does not see) against
+         examples/intelsat5.dep, 0-70 s at tol 1e-8 without rows (--dt-out 70), standalone
+         programs, medians of --repeat whole processes run interleaved; and 0-50 s, before
+         the first latch. Printed: the time ratios (the issue's goal: under 5), steps and
+         force evaluations, the latch times side by side, and the largest angle error over
+         0-50 s against the hand-written joint-coordinate solver
+         (tests/references/intelsat_hand.c at tol 1e-13).
 bricard  tests/runtime/models/bricard.dep, standalone, at --tols, 0-10 s, 400 output steps;
          against the joint-coordinate reference tests/references/bricard.py (DOP853 at 1e-12)
          for P3 (the benchmark's reported point), the energy drift, and the wall time (median
@@ -241,14 +243,14 @@ def standalone(program: Path, out: Path, *options: str, summary: Path | None = N
             "evaluations": int(found[4])}
 
 
-def interleaved(programs: list[Path], options: list[str], folder: Path, repeat: int):
-    """Medians of wall and CPU time over `repeat` rounds, one whole process of each program a
+def interleaved(commands: list[list[str]], folder: Path, repeat: int):
+    """Medians of wall and CPU time over `repeat` rounds, one whole process of each command a
     round."""
-    walls = [[] for _ in programs]
-    cpus = [[] for _ in programs]
+    walls = [[] for _ in commands]
+    cpus = [[] for _ in commands]
     for _ in range(repeat):
-        for k, program in enumerate(programs):
-            wall, cpu, _ = timed([str(program), *options, "-o", str(folder / "timed.csv")])
+        for k, command in enumerate(commands):
+            wall, cpu, _ = timed([*command, "-o", str(folder / "timed.csv")])
             walls[k].append(wall)
             cpus[k].append(cpu)
     return [statistics.median(w) for w in walls], [statistics.median(c) for c in cpus]
@@ -259,8 +261,31 @@ def latch_times(summary: Path) -> dict[str, float]:
     return {e["hinge"]: e["t"] for e in events if e["name"].endswith(".latch")}
 
 
+# The spatial members' moments about their length (x) and normal (y); about the hinge axes (z)
+# each keeps the planar model's. "plate" is the model's own (bench/models/intelsat5_spatial.dep).
+INTELSAT_IZ = {"yoke": 0.2798, "panel1": 4.2009, "panel2": 3.8773, "panel3": 2.9316}
+INTELSAT_VARIANTS = {
+    "plate": None,
+    "thin bar": lambda iz: (iz / 100, iz),  # Ixx = Izz / 100, Iyy = Izz
+    "equal": lambda iz: (iz, iz),  # Ixx = Iyy = Izz: the body's J = tr(I)/2 - I is isotropic
+}
+
+
+def variant_settings(name: str) -> list[str]:
+    moments = INTELSAT_VARIANTS[name]
+    settings = []
+    if moments is not None:
+        for member, iz in INTELSAT_IZ.items():
+            ix, iy = moments(iz)
+            settings += ["--set", f"{member}.inertia_x={ix!r}", "--set",
+                         f"{member}.inertia_y={iy!r}"]
+    return settings
+
+
 def intelsat_table(args, folder: Path, cache: Path) -> None:
-    print("\nINTELSAT V, spatial (hinge axes along z) against planar, tol 1e-8, standalone")
+    print("\nINTELSAT V written spatially (hinge axes along z) against the planar model, tol "
+          "1e-8, standalone programs; the spatial members as plates 1.5 m x 3 cm (the "
+          "model's), thin bars, or with equal moments")
     spatial, cpu_s = build_program(INTELSAT_SPATIAL, folder, cache)
     planar, cpu_p = build_program(INTELSAT_PLANAR, folder, cache)
     print(f"built in {cpu_s:.0f} CPU s (spatial) and {cpu_p:.0f} CPU s (planar), "
@@ -272,52 +297,50 @@ def intelsat_table(args, folder: Path, cache: Path) -> None:
                            str(folder / "hand.csv")], check=True, capture_output=True, text=True)
     reference = np.loadtxt(folder / "hand.csv", delimiter=",", skiprows=1)
     hand_latches = {h: float(t) for h, t in re.findall(r"latch (\w+) t ([0-9.]+)", done.stderr)}
-    names = ("spatial", "planar")
+    runs = {"planar": [str(planar)]}
+    runs.update({f"spatial, {name}": [str(spatial), *variant_settings(name)]
+                 for name in INTELSAT_VARIANTS})
     for t_end, label in ((70, "0-70 s, no rows (--dt-out 70)"),
                          (50, "0-50 s, before the first latch, no rows")):
         options = ["--t-end", str(t_end), "--tol", "1e-8", "--dt-out", str(t_end)]
-        info = [standalone(p, folder / "run.csv", *options) for p in (spatial, planar)]
-        walls, cpus = interleaved([spatial, planar], options, folder, args.repeat)
+        info = {name: standalone(Path(c[0]), folder / "run.csv", *c[1:], *options)
+                for name, c in runs.items()}
+        walls, cpus = interleaved([[*c, *options] for c in runs.values()], folder, args.repeat)
         print(f"\n{label}; medians of {args.repeat} interleaved whole processes")
-        print(f"{'model':<9} {'wall ms':>9} {'CPU ms':>8} {'steps':>7} {'rej+retr':>9} "
-              f"{'f evals':>8}")
-        for name, i, wall, cpu in zip(names, info, walls, cpus):
-            print(f"{name:<9} {1e3 * wall:>9.1f} {1e3 * cpu:>8.1f} {i.get('steps', '-'):>7} "
-                  f"{i.get('rejected', '-'):>9} {i.get('evaluations', '-'):>8}")
-        print(f"spatial / planar: {walls[0] / walls[1]:.1f}x the wall time, "
-              f"{cpus[0] / max(cpus[1], 1e-9):.1f}x the CPU time, "
-              f"{info[0]['evaluations'] / info[1]['evaluations']:.1f}x the force evaluations "
-              f"(compared against: the issue's goal, under 5x)")
-    summaries = [folder / f"{name}.json" for name in names]
-    for program, summary in zip((spatial, planar), summaries):
-        standalone(program, folder / "run.csv", "--t-end", "70", "--tol", "1e-8", "--dt-out",
-                   "70", summary=summary)
-    latches = [latch_times(s) for s in summaries]
-    print("\nlatch times, 0-70 s, tol 1e-8 (s); the hand solver's at tol 1e-13")
-    print(f"{'hinge':<6} {'spatial':>12} {'planar':>12} {'hand':>12} {'spatial-planar':>15} "
-          f"{'planar-hand':>12}")
-
-    def shown(value):
-        return f"{value:.7f}" if value is not None else "never"
-
-    def relative(a, b):
-        return f"{abs(a - b) / b:.1e}" if a is not None and b is not None else "-"
-
-    for hinge in sorted(set(latches[0]) | set(latches[1]) | set(hand_latches)):
-        s, p, h = latches[0].get(hinge), latches[1].get(hinge), hand_latches.get(hinge)
-        print(f"{hinge:<6} {shown(s):>12} {shown(p):>12} {shown(h):>12} {relative(s, p):>15} "
-              f"{relative(p, h):>12}")
+        print(f"{'model':<20} {'wall ms':>8} {'CPU ms':>7} {'steps':>6} {'rej+retr':>9} "
+              f"{'f evals':>8} {'wall/planar':>12} {'CPU/planar':>11}")
+        for (name, i), wall, cpu in zip(info.items(), walls, cpus):
+            print(f"{name:<20} {1e3 * wall:>8.1f} {1e3 * cpu:>7.1f} {i.get('steps', '-'):>6} "
+                  f"{i.get('rejected', '-'):>9} {i.get('evaluations', '-'):>8} "
+                  f"{wall / walls[0]:>12.1f} {cpu / max(cpus[0], 1e-9):>11.1f}")
+    print("compared against: the issue's goal, spatial under 5 times the planar time")
+    latches = {}
+    for name, command in runs.items():
+        summary = folder / "latches.json"
+        standalone(Path(command[0]), folder / "run.csv", *command[1:], "--t-end", "70",
+                   "--tol", "1e-8", "--dt-out", "70", summary=summary)
+        latches[name] = latch_times(summary)
+    latches["hand, tol 1e-13"] = hand_latches
+    print("\nlatch times, 0-70 s, tol 1e-8 (s), and the largest difference from the planar "
+          "model's relative to it")
+    hinges = sorted(set().union(*latches.values()))
+    print(f"{'model':<20} " + " ".join(f"{h:>11}" for h in hinges) + f" {'rel. diff':>10}")
+    for name, times in latches.items():
+        differences = [abs(times[h] - latches["planar"][h]) / latches["planar"][h]
+                       for h in hinges if h in times and h in latches["planar"]]
+        cells = " ".join(f"{times[h]:>11.6f}" if h in times else f"{'never':>11}"
+                         for h in hinges)
+        print(f"{name:<20} {cells} {max(differences):>10.1e}")
     print("compared against: the planar model's latch times (agreement within ~1e-6 "
           "relative expected)")
-    errors = []
-    for program in (spatial, planar):
-        standalone(program, folder / "angles.csv", "--t-end", "50", "--tol", "1e-8",
-                   "--dt-out", "0.05")
+    print("\nlargest angle error over 0-50 s (before the first latch) against the hand solver "
+          "at tol 1e-13, tol 1e-8")
+    for name, command in runs.items():
+        standalone(Path(command[0]), folder / "angles.csv", *command[1:], "--t-end", "50",
+                   "--tol", "1e-8", "--dt-out", "0.05")
         angles = np.loadtxt(folder / "angles.csv", delimiter=",", skiprows=1)
-        errors.append(float(np.max(np.abs(angles[:, 1:5] - reference[:len(angles), 1:5]))))
-    print(f"largest angle error over 0-50 s against the hand solver at tol 1e-13: spatial "
-          f"{errors[0]:.2e} rad ({errors[0] / 1e-8:.0f} tol), planar {errors[1]:.2e} rad "
-          f"({errors[1] / 1e-8:.0f} tol)")
+        error = float(np.max(np.abs(angles[:, 1:5] - reference[:len(angles), 1:5])))
+        print(f"{name:<20} {error:.2e} rad = {error / 1e-8:.0f} tol")
 
 
 # --- Bricard's mechanism ---------------------------------------------------------------------
