@@ -7,7 +7,6 @@ Equations (docs/generated-module.md, docs/method.md section 1):
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 
 import sympy
@@ -38,6 +37,10 @@ class SymbolicSystem:
     """
 
     name: str
+    # constant geometry named while deriving (a spatial model's unit axes, normals, relative
+    # orientations: codegen/spatial.py), each a step of its own computed from p and the
+    # ones before it at the start of every generated function that uses it
+    constants: tuple[Group, ...]
     coordinates: tuple[str, ...]  # NQ names, e.g. "yoke.phi"
     q: tuple[sympy.Symbol, ...]
     qd: tuple[sympy.Symbol, ...]
@@ -190,8 +193,13 @@ def derive(model: ir.Model) -> SymbolicSystem:
                         RowIndex({(row.joint, row.name.rsplit(".", 1)[1]): i
                                   for i, row in enumerate(rows)}),
                         loads.energies, loads.dissipator_names, loads.springs)
+    constants = {}  # the spatial geometry's named constants, in the order they were named
+    if model.spatial:
+        constants = {**placing.constants, **kin.constants}
     system = SymbolicSystem(
-        name=model.name, coordinates=symbols.names, q=q, qd=symbols.qd, p=symbols.p, t=t,
+        name=model.name,
+        constants=tuple(((symbol, value),) for symbol, value in constants.items()),
+        coordinates=symbols.names, q=q, qd=symbols.qd, p=symbols.p, t=t,
         mass_matrix=mass, mass_pattern=_pattern(mass),
         constraint_names=tuple(row.name for row in rows),
         constraint_joints=tuple(row.joint for row in rows),
@@ -224,22 +232,7 @@ def derive(model: ir.Model) -> SymbolicSystem:
         limit_bounds=column(kin.const(limit.bound) if limit.bound is not None else 0
                             for limit in model.limits),
     )
-    if model.spatial:  # put the named constant geometry back (codegen/spatial.py)
-        kin.constants.update(placing.constants)
-        system = _substituted(system, kin.resolved())
     return system
-
-
-def _substituted(system: SymbolicSystem, constants: dict) -> SymbolicSystem:
-    """`system` with the symbols of `constants` replaced by their values in every field."""
-    def replace(value):
-        if isinstance(value, sympy.Basic):
-            return value.xreplace(constants)
-        if isinstance(value, tuple):
-            return tuple(replace(item) for item in value)
-        return value
-    return dataclasses.replace(system, **{field.name: replace(getattr(system, field.name))
-                                          for field in dataclasses.fields(system)})
 
 
 def _coordinate_scales(model: ir.Model, kin: Kinematics) -> ImmutableMatrix:

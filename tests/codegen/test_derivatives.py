@@ -136,6 +136,9 @@ def test_module_matches_sympy(compiled):
     values = dict(zip(system.q, s.q)) | dict(zip(system.qd, s.qd)) | dict(zip(system.p, s.p)) \
         | dict(zip(system.lam, s.lam)) | dict(zip(system.w, s.w))
     values[system.t] = s.t
+    for group in system.constants:  # named constant geometry, each of p and those before it
+        for symbol, value in group:
+            values[symbol] = value.xreplace(values).evalf()
 
     def symbolic(matrix):
         return np.array(matrix.xreplace(values).evalf(), dtype=float).reshape(matrix.shape)
