@@ -58,3 +58,32 @@ def test_two_link_flex_matches_models_md():
     assert evaluate(m.gravity[1], p) == pytest.approx(-9.81)
     assert evaluate(m.hinges[1].initial_angle, p) == pytest.approx(math.radians(5))
     assert [o.unit for o in m.outputs] == ["rad", "m"]
+
+
+def test_canted_wing_matches_models_md():
+    m = load_model(EXAMPLES[0].with_name("canted_wing.dep"))
+    p = values(m)
+    assert m.spatial and m.gravity == (Num(0.0), Num(0.0), Num(0.0))  # in orbit
+    assert [b.name for b in m.bodies] == ["yoke", "panel1", "panel2"]
+    assert [evaluate(b.mass, p) for b in m.bodies] == [1.6, 5.2, 5.2]
+    assert [evaluate(x, p) for x in m.bodies[1].principal] == [1.8417, 0.73261, 1.10961]
+    assert [h.name for h in m.hinges] == ["root", "inner", "outer"]
+    assert [[evaluate(x, p) for x in h.axis] for h in m.hinges] == \
+        [[0, 0, -1], [0, 0, 1], [0, 0, -1]]
+    assert [math.degrees(evaluate(h.latch, p)) for h in m.hinges] == \
+        pytest.approx([90, 176, 179])
+    assert [evaluate(h.friction, p) for h in m.hinges] == [0.2, 0.1, 0.1]
+    assert [evaluate(c.stiffness, p) for c in m.cables] == pytest.approx([30.0, 30.0])
+
+
+def test_reflector_arm_matches_models_md():
+    m = load_model(EXAMPLES[0].with_name("reflector_arm.dep"))
+    p = values(m)
+    assert [(b.name, evaluate(b.mass, p)) for b in m.bodies] == [("boom", 1.6),
+                                                               ("reflector", 8.5)]
+    assert [evaluate(x, p) for x in m.bodies[1].principal] == [2.033, 1.068, 1.152]
+    shoulder, elbow = m.hinges
+    assert [evaluate(x, p) for x in shoulder.axis] == [0, -1, 0]
+    assert [evaluate(x, p) for x in elbow.axis] == [-1, 0, 0]
+    assert [evaluate(h.damping, p) for h in m.hinges] == [40, 25]
+    assert [evaluate(h.latch_stiffness, p) for h in m.hinges] == [5000, 3000]
