@@ -20,8 +20,9 @@ every hinge is at zero, so at the hinge angle theta
 
     R_B = R_A Rot(a, sign (theta - offset)) R0,   R0 = O_A^T O_B (the orientations),
 
-and theta is measured by the turn of e about a, within half a turn of its initial value (the
-angle does not jump where atan2 would). A weld holds R_B = R_A R0 (rows rx, ry, rz), a ball
+and theta is measured by the turn of e about a, within half a turn of the middle of its
+travel (codegen/spatial_assembly.py, hinge_turns: the angle does not jump where atan2
+would). A weld holds R_B = R_A R0 (rows rx, ry, rz), a ball
 joint its points only."""
 
 from __future__ import annotations

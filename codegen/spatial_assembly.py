@@ -43,14 +43,23 @@ def assemble_spatial(model: ir.Model, kin: SpatialKinematics) -> Assembly:
 
 def hinge_turns(model: ir.Model, kin: SpatialKinematics, assembly: Assembly
                 ) -> tuple[sympy.Expr, ...]:
-    """Each hinge's turn at t = 0 (rad, of p): sign (theta0 - offset) for a hinge that
-    places a member, the placed members' turn for one that closes a loop."""
+    """Each hinge's turn (rad, of p) its angle is measured within half a turn of: for a hinge
+    that places a member, the middle of its travel, between its initial angle and its latch
+    (or the middle of its stops, or its initial angle without either), so that a panel
+    folded through 180 degrees reaches its latch; for one that closes a loop, the placed
+    members' turn at t = 0."""
     placing = {p.joint for p in model.placements if p.kind is ir.JointKind.HINGE}
     turns = []
     for index, hinge in enumerate(model.hinges):
         if index in placing:
-            turns.append(hinge.sign * (kin.const(hinge.initial_angle)
-                                       - kin.const(hinge.offset)))
+            start = kin.const(hinge.initial_angle)
+            if hinge.latch is not None:
+                middle = (start + kin.const(hinge.latch)) / 2
+            elif hinge.stop_min is not None and hinge.stop_max is not None:
+                middle = (kin.const(hinge.stop_min) + kin.const(hinge.stop_max)) / 2
+            else:
+                middle = start
+            turns.append(hinge.sign * (middle - kin.const(hinge.offset)))
         else:
             raw = assembly.at_start(kin.hinge_raw_turn(index, sympy.Integer(0)))
             turns.append(raw.xreplace(kin.resolved()))

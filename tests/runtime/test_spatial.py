@@ -372,3 +372,21 @@ output m = h.moment
     np.testing.assert_allclose(result.output("m"), 2 * 9.81 * 0.5, rtol=1e-9)
     for name in ("mx", "mz"):
         assert np.max(np.abs(result.output(name))) < 1e-9
+
+
+def test_a_panel_folded_through_half_a_turn_reaches_its_latch(tmp_path):
+    """A hinge driven by its preload from 0 to its latch at 180 deg (a Z-folded panel's
+    travel): its angle is measured about the middle of that travel, so it reaches the latch
+    instead of reading -180 deg there; the spring's work, preload x pi, is the impact's
+    loss."""
+    text = """model halfturn spatial "A panel turned through half a turn to its latch"
+body panel { mass = 2 kg; inertia = (0.05, 0.3, 0.3) kg*m^2; point a = (0.5, 0, 0) m }
+hinge h joins ground.origin to panel.a { axis = (0, 0, 1); preload = 0.5 N*m; latch = 180 deg }
+simulate { t_end = 4 s; tol = 1e-9; dt_out = 0.01 s }
+"""
+    result = compile_text(tmp_path, "halfturn", text).run()
+    assert result.deployment.deployed
+    (latch,) = result.deployment.latches
+    assert latch.energy_loss == pytest.approx(0.5 * math.pi, rel=1e-6)
+    assert np.all(np.diff(result.hinge_angles[:, 0]) >= -1e-12)  # no jump of a whole turn
+    assert result.hinge_angles[-1, 0] == pytest.approx(math.pi, abs=1e-9)
