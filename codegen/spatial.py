@@ -27,8 +27,10 @@ joint its points only."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
+import numpy as np
 import sympy
 
 from depsim.dsl import ir
@@ -271,14 +273,59 @@ class SpatialKinematics:
         return dot(axis_b, times(ra, frame.e)), dot(axis_b, times(ra, frame.f))
 
     def hinge_turn_parts(self, index: int, near: sympy.Expr) -> tuple[sympy.Expr, sympy.Expr]:
-        """(S, C): the turn of B relative to A about the axis is near + atan2(S, C), the angle
-        from A's e turned by `near` to B's e about the axis (S, C bilinear in q)."""
+        """(S, C): the turn of B relative to A about the axis is near + atan2(S, C) (S, C
+        bilinear in q). It is measured between a unit vector s_A normal to the axis fixed in
+        A and one, s_B, fixed in B, each along its member's largest second moment in the
+        plane normal to the axis at the default parameters (`_measuring_turns`): a hinge
+        force's direction then moves no member along its thin direction, whose small moment
+        would make the explicit step stiff (a panel's thickness). With (C0 + i S0) the pair of
+        u = R_A s_A and w = R_B s_B, (C + i S) = (C0 + i S0) e^(-i delta), delta = near -
+        beta, beta the angle from s_B's reference to s_A about the axis."""
         hinge, frame = self.model.hinges[index], self.hinge_frame(index)
         ra, rb = self.rotation(hinge.a.member), self.rotation(hinge.b.member)
-        start = self._named_vector(f"{hinge.name}.start", (
-            sympy.cos(near) * e + sympy.sin(near) * f for e, f in zip(frame.e, frame.f)))
-        u, w, n = times(ra, start), times(rb, frame.e_b), times(ra, frame.axis)
-        return dot(cross(u, w), n), dot(u, w)
+        t_a, t_b = self._measuring_turns(index)
+        s_a = tuple(math.cos(t_a) * e + math.sin(t_a) * f for e, f in zip(frame.e, frame.f))
+        s_b = times(frame.relative.T, tuple(math.cos(t_b) * e + math.sin(t_b) * f
+                                            for e, f in zip(frame.e, frame.f)))
+        s_b = self._named_vector(f"{hinge.name}.s_b", s_b)
+        u, w, n = times(ra, s_a), times(rb, s_b), times(ra, frame.axis)
+        sine, cosine = dot(cross(u, w), n), dot(u, w)
+        delta = near - (t_a - t_b)
+        c, s = self.named(f"{hinge.name}.cos_delta", sympy.cos(delta)), \
+            self.named(f"{hinge.name}.sin_delta", sympy.sin(delta))
+        return sine * c - cosine * s, cosine * c + sine * s
+
+    def _measuring_turns(self, index: int) -> tuple[float, float]:
+        """(t_A, t_B): the directions cos t e + sin t f (A's frame) of s_A and of s_B (B's,
+        mapped by R0) that minimise s^T J^-1 s of their member at the default parameters
+        (the largest second moment normal to the axis); 0 for the ground or a particle."""
+        hinge, frame = self.model.hinges[index], self.hinge_frame(index)
+        defaults = self._defaults()
+        resolved = self.resolved()
+
+        def value(expr) -> float:
+            return float(sympy.sympify(expr).xreplace(resolved).xreplace(defaults))
+
+        e = np.array([value(x) for x in frame.e])
+        f = np.array([value(x) for x in frame.f])
+        relative = np.array([[value(frame.relative[i, j]) for j in range(3)]
+                             for i in range(3)])
+
+        def best(member: ir.Member, turn: np.ndarray) -> float:
+            if member.kind is not ir.MemberKind.BODY:
+                return 0.0
+            second = self.second_moment(self.model.bodies[member.index])
+            inverse = np.linalg.inv(np.array([[value(second[i, j]) for j in range(3)]
+                                              for i in range(3)]))
+            basis = turn @ np.stack([e, f], axis=1)  # the plane, in the member's frame
+            form = basis.T @ inverse @ basis
+            vector = np.linalg.eigh(form)[1][:, 0]
+            return float(math.atan2(vector[1], vector[0]))
+
+        t_b = best(hinge.b.member, relative.T)
+        t_a = best(hinge.a.member, np.eye(3)) if hinge.a.member.kind is ir.MemberKind.BODY \
+            else t_b
+        return t_a, t_b
 
     def hinge_raw_turn(self, index: int, near: sympy.Expr) -> sympy.Expr:
         """The turn of B relative to A about the axis (rad), within half a turn of `near`."""
