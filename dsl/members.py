@@ -195,7 +195,7 @@ def read_turns(item: AttributeItem | None, entry: str, reader: AttributeReader
         typed = reader.quantity(factor.args[0], ANGLE, f"the angle of {factor.func.text}")
         if typed is None:
             return None
-        angle = reader.enter(f"{entry}.{k + 1}", typed.expr, ANGLE, factor.args[0].span)
+        angle = reader.enter(f"{entry}_{k + 1}", typed.expr, ANGLE, factor.args[0].span)
         if angle is None:
             return None
         turns.append(Turn(_TURNS[factor.func.text], angle))
