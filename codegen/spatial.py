@@ -304,7 +304,7 @@ class SpatialKinematics:
         resolved = self.resolved()
 
         def value(expr) -> float:
-            return float(sympy.sympify(expr).xreplace(resolved).xreplace(defaults))
+            return float(expr.xreplace(resolved).xreplace(defaults))
 
         e = np.array([value(x) for x in frame.e])
         f = np.array([value(x) for x in frame.f])

@@ -26,27 +26,18 @@ given output times ``t`` (t[0] = 0), time along the first axis.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.integrate import solve_ivp
 
+from .spatial import _rodrigues as _rotation  # Rodrigues about a unit axis
+
 Array = NDArray[np.float64]
 
 RTOL = 1e-12
 ATOL = 1e-12
-
-
-def _rotation(axis: Array, angle: float) -> Array:
-    """The right-handed rotation by ``angle`` about the unit ``axis`` (Rodrigues)."""
-    x, y, z = axis
-    c, s = math.cos(angle), math.sin(angle)
-    k = 1.0 - c
-    return np.array([[c + k * x * x, k * x * y - s * z, k * x * z + s * y],
-                     [k * x * y + s * z, c + k * y * y, k * y * z - s * x],
-                     [k * x * z - s * y, k * y * z + s * x, c + k * z * z]])
 
 
 def _bracket(V: Array, xi: Array) -> Array:
