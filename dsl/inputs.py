@@ -3,6 +3,7 @@ Inputs).
 
     input T_motor torque on h1              # N*m on hinge h1: +T on member b, -T on member a
     input F_push force on panel1.tip = (0, 2) N   # N, ground frame: inputs F_push.x, F_push.y
+                                                  # (and F_push.z in a spatial model)
 
 Each component becomes two entries of the parameter vector, its value at t = 0 (the
 default, else 0) and its rate `<component>.rate` (0), so u(t) = value + rate t: constant
@@ -51,7 +52,9 @@ def resolve_input(statement: InputStmt, symbols: SymbolTable, reader: AttributeR
         values = _force_default(statement, reader)
         if values is None:
             return None
-        components, dim, where = (f"{name}.x", f"{name}.y"), FORCE, (None, found[1])
+        axes = "xyz" if reader.spatial else "xy"
+        components, dim, where = tuple(f"{name}.{axis}" for axis in axes), FORCE, \
+            (None, found[1])
     slots = []
     for component, value in zip(components, values):
         ref = reader.vector.add(Param(component, value, dim, si_text(dim), ParamKind.INPUT,
@@ -102,21 +105,24 @@ def _torque_default(statement: InputStmt, reader: AttributeReader) -> tuple[floa
 
 
 def _force_default(statement: InputStmt, reader: AttributeReader
-                   ) -> tuple[float, float] | None:
+                   ) -> tuple[float, ...] | None:
+    """The force's components at t = 0 (x, y and in a spatial model z; 0 without one)."""
+    axes = "xyz" if reader.spatial else "xy"
     if statement.default is None:
-        return (0.0, 0.0)
+        return (0.0,) * len(axes)
     what = f"input '{statement.name.text}'"
     default = statement.default
     if not isinstance(default, VectorLit):
-        reader.report.error("E023", f"{what} is a force: give both components, e.g. "
-                            "(0, 1) N", default.span)
+        example = "(0, 0, 1) N" if reader.spatial else "(0, 1) N"
+        reader.report.error("E023", f"{what} is a force: give all {len(axes)} components, "
+                            f"e.g. {example}", default.span)
         return None
-    pair = read_vector(_Expressions(reader), default, FORCE, what, ("x", "y"))
-    if pair is None:
+    vector = read_vector(_Expressions(reader), default, FORCE, what, tuple(axes))
+    if vector is None:
         return None
     values = [_constant(statement, reader, expr, component.span, what)
-              for expr, component in zip(pair, (default.x, default.y))]
-    return None if None in values else (values[0], values[1])
+              for expr, component in zip(vector, default.components)]
+    return None if None in values else tuple(values)
 
 
 class _Expressions:

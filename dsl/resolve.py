@@ -231,10 +231,6 @@ class _ModelBuilder:
             statement.name.text, typed.expr, typed.dim, si_text(typed.dim), statement.span))
 
     def _read_InputStmt(self, statement: InputStmt) -> None:
-        if self.spatial and statement.kind == "force":
-            self.report.error("E060", "a spatial model cannot have force inputs yet",
-                              statement.span, hint="drive a hinge by a torque input")
-            return
         if self._declares(statement):
             self.inputs.append(resolve_input(statement, self.symbols, self.reader))
 

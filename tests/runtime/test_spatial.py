@@ -132,6 +132,21 @@ def test_an_asymmetric_heavy_top_follows_the_reference(tmp_path):
     assert np.ptp(energy) < 10 * tol * abs(energy[0])  # 2.5 tol
 
 
+def test_a_force_input_at_the_centre_of_mass_acts_as_gravity_does(tmp_path):
+    """The heavy top without gravity, pushed down at its centre of mass by a force input
+    whose z component a run sets to -m g: the reference's motion (a force at a point enters
+    as (dr/dq)^T F, gravity as -dV/dq)."""
+    m, J, pivot = 2.0, (0.02, 0.025, 0.03), (0.01, -0.02, -0.1)
+    R0, omega0 = rot([1, 0.5, 0], 0.4), (1.0, -2.0, 3.0)
+    text = top_model(m, J, pivot, R0, omega0, (0, 0, 0), 1e-9, 2).replace(
+        "simulate", "input weight force on top.cm\nsimulate")
+    sim = compile_text(tmp_path, "pushed", text)
+    result = sim.run(inputs={"weight.z": -m * 9.81})
+    reference = heavy_top(result.times, g=np.array(G), m=m, J=np.diag(J),
+                          pivot=np.array(pivot), R0=R0, omega0=np.array(omega0))
+    assert np.max(np.abs(rotations(result, "top") - reference["R"])) < 300 * result.tol
+
+
 def test_a_lagrange_top_precesses_steadily_at_the_closed_form_rate(tmp_path):
     """A symmetric top started in steady precession keeps its tilt and precesses at the
     slow root of A_O W^2 cos(tilt) - C n W + m g l = 0."""
