@@ -185,10 +185,16 @@ class SpatialKinematics:
         return result
 
     def second_moment(self, body: ir.Body) -> sympy.Matrix:
-        """J = integral rho rho^T dm = tr(I)/2 - I in the body frame."""
+        """J = integral rho rho^T dm = tr(I)/2 - I in the body frame (ir.Body: I from the
+        principal moments along principal_axes, or from the moments and products)."""
         moments = [self.const(value) for value in body.principal]
-        axes = self.turns(body.principal_axes)
-        inertia = axes * sympy.diag(*moments) * axes.T
+        if body.products is not None:
+            pxy, pyz, pzx = (self.const(value) for value in body.products)
+            inertia = sympy.Matrix([[moments[0], -pxy, -pzx], [-pxy, moments[1], -pyz],
+                                    [-pzx, -pyz, moments[2]]])
+        else:
+            axes = self.turns(body.principal_axes)
+            inertia = axes * sympy.diag(*moments) * axes.T
         return sympy.Add(*moments) / 2 * sympy.eye(3) - inertia
 
     # -- points ----------------------------------------------------------------------------

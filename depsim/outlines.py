@@ -53,12 +53,20 @@ def _square(body: ir.Body, p) -> list[tuple[float, ...]]:
 
 def _box(body: ir.Body, p) -> list[tuple[float, ...]]:
     """The corners of the uniform box of the body's mass and principal moments (the strict
-    triangle inequality of the moments, a range check, makes every half-side positive),
-    along its principal axes."""
+    triangle inequality of the moments and, with products of inertia, the positive definite
+    second moments, range checks, make every half-side positive), along its principal
+    axes."""
     mass = evaluate(body.mass, p)
     moments = [evaluate(moment, p) for moment in body.principal]
-    half = [math.sqrt(1.5 * (sum(moments) - 2 * moments[i]) / mass) for i in range(3)]
-    axes = rotation(body.principal_axes, p)
+    if body.products is not None:  # the principal moments and axes of the tensor (ir.Body)
+        pxy, pyz, pzx = (evaluate(value, p) for value in body.products)
+        tensor = np.array([[moments[0], -pxy, -pzx], [-pxy, moments[1], -pyz],
+                           [-pzx, -pyz, moments[2]]])
+        moments, axes = np.linalg.eigh(tensor)
+    else:
+        axes = rotation(body.principal_axes, p)
+    half = [math.sqrt(max(1.5 * (sum(moments) - 2 * moments[i]) / mass, 0.0))
+            for i in range(3)]
     corners = [axes @ (np.array((sx, sy, sz)) * half)
                for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]
     return [tuple(float(c) for c in corner) for corner in corners]

@@ -49,14 +49,17 @@ _LINEAR_DAMPING = Dim(mass=1, time=-1)  # N*s/m
 _FORCE = Dim(mass=1, length=1, time=-2)
 
 SPECS: dict[str, tuple[AttrSpec, ...]] = {
-    # A spatial model's `inertia` is a vector of principal moments, its `orientation` and
-    # `principal_axes` products of turns (read by dedicated code: dsl/members.py).
+    # A spatial model's `inertia` is a vector of moments, `products_of_inertia` another,
+    # `orientation` and `principal_axes` products of turns (read by dedicated code:
+    # dsl/members.py).
     "bar": (AttrSpec("length", LENGTH, True, "positive"), AttrSpec("mass", MASS, True, "positive"),
             AttrSpec("inertia", Dim(mass=1, length=2), True, "positive"),
-            AttrSpec("orientation", None), AttrSpec("principal_axes", None)),
+            AttrSpec("orientation", None), AttrSpec("principal_axes", None),
+            AttrSpec("products_of_inertia", None)),
     "body": (AttrSpec("mass", MASS, True, "positive"),
              AttrSpec("inertia", Dim(mass=1, length=2), True, "positive"),
-             AttrSpec("orientation", None), AttrSpec("principal_axes", None)),
+             AttrSpec("orientation", None), AttrSpec("principal_axes", None),
+             AttrSpec("products_of_inertia", None)),
     "particle": (AttrSpec("mass", MASS, True, "positive"),),
     "beam": (AttrSpec("length", LENGTH, True, "positive"),
              AttrSpec("EI", Dim(mass=1, length=3, time=-2), True, "positive"),

@@ -259,8 +259,11 @@ class Body:
     """A rigid body. kind "bar" (points a, b from length) or "body". Planar: `inertia` about
     the centre of mass. Spatial: `principal`, the principal moments of inertia about the
     centre of mass along the axes of the frame `principal_axes` (given in the body frame;
-    the body frame itself when empty), and `orientation`, the body frame's orientation in
-    the world when every hinge is at its zero (docs/language.md, Spatial models)."""
+    the body frame itself when empty) or, with `products`, the moments about the body's
+    axes and its products of inertia (Pxy, Pyz, Pzx) = integrals of (x y, y z, z x) dm, so
+    that the inertia tensor is [[Ixx, -Pxy, -Pzx], [-Pxy, Iyy, -Pyz], [-Pzx, -Pyz, Izz]];
+    and `orientation`, the body frame's orientation in the world when every hinge is at its
+    zero (docs/language.md, Spatial models)."""
 
     name: str
     kind: str
@@ -272,6 +275,7 @@ class Body:
     principal: tuple[Expr, Expr, Expr] | None = None  # kg*m^2, spatial models only
     principal_axes: tuple[Turn, ...] = ()
     orientation: tuple[Turn, ...] = ()
+    products: tuple[Expr, Expr, Expr] | None = None  # kg*m^2, spatial: Pxy, Pyz, Pzx
 
 
 @dataclass(frozen=True, slots=True)

@@ -133,15 +133,18 @@ def _planar_only(statement: MemberStmt, found: dict[str, AttributeItem],
     return None if any(key in found for key in SPATIAL_ATTRIBUTES) else {}
 
 
-SPATIAL_ATTRIBUTES = ("orientation", "principal_axes")
+SPATIAL_ATTRIBUTES = ("orientation", "principal_axes", "products_of_inertia")
 _TURNS = {"rx": "x", "ry": "y", "rz": "z"}
 
 
 def read_spatial_body(statement: MemberStmt, found: dict[str, AttributeItem],
                       reader: AttributeReader) -> dict | None:
-    """A spatial body's principal moments (`inertia = (Ixx, Iyy, Izz) kg*m^2`, checked to be
-    those of a body: positive, each smaller than the sum of the other two), `principal_axes`
-    and `orientation` (products of turns); None when they have errors (reported)."""
+    """A spatial body's moments (`inertia = (Ixx, Iyy, Izz) kg*m^2`, checked to be those of
+    a body: positive, each smaller than the sum of the other two), either `principal_axes`
+    (a product of turns: the moments are principal) or `products_of_inertia = (Pxy, Pyz,
+    Pzx) kg*m^2` (the moments are about the body's axes; the tensor checked positive
+    definite with its second moments, `_check_products`), and `orientation`; None when they
+    have errors (reported)."""
     name = statement.name.text
     item = found.get("inertia")
     if item is None:
@@ -167,9 +170,66 @@ def read_spatial_body(statement: MemberStmt, found: dict[str, AttributeItem],
                                        "kg*m^2", item.value.span))
     axes = read_turns(found.get("principal_axes"), f"{name}.principal_axes", reader)
     orientation = read_turns(found.get("orientation"), f"{name}.orientation", reader)
-    if not ok or axes is None or orientation is None:
+    products = _read_products(found.get("products_of_inertia"), name, reader)
+    if "products_of_inertia" in found and "principal_axes" in found:
+        reader.report.error("E028", f"'{name}' has both principal_axes and "
+                            "products_of_inertia: its moments are either principal (along "
+                            "principal_axes) or about the body's axes (with their products)",
+                            found["products_of_inertia"].name.span,
+                            hint="give one of the two")
         return None
-    return dict(principal=moments, principal_axes=axes, orientation=orientation)
+    if not ok or axes is None or orientation is None or products is False:
+        return None
+    if products is not None and not _check_products(moments, products, name,
+                                                     found["products_of_inertia"], reader):
+        return None
+    return dict(principal=moments, principal_axes=axes, orientation=orientation,
+                products=products)
+
+
+def _read_products(item: AttributeItem | None, name: str, reader: AttributeReader):
+    """`products_of_inertia = (Pxy, Pyz, Pzx) kg*m^2`; None when not given, False after an
+    error."""
+    if item is None:
+        return None
+    if not isinstance(item.value, VectorLit):
+        reader.report.error("E023", "products_of_inertia takes three values (Pxy, Pyz, Pzx), "
+                            "the integrals of x y, y z and z x dm about the centre of mass",
+                            item.value.span, hint="e.g. products_of_inertia = (0.01, 0, 0) "
+                                                  "kg*m^2")
+        return False
+    products = read_vector(reader, item.value, Dim(mass=1, length=2), "products_of_inertia",
+                           tuple(f"{name}.products_of_inertia_{pair}"
+                                 for pair in ("xy", "yz", "zx")))
+    return False if products is None else products
+
+
+def _check_products(moments, products, name: str, item: AttributeItem,
+                    reader: AttributeReader) -> bool:
+    """The body's second moments J = tr(I)/2 - I (its mass's spread, integral of rho rho^T
+    dm) positive definite, by Sylvester's criterion: J's diagonal (the triangle inequality,
+    checked with the moments) and its leading minors of order 2 and 3 positive. A positive
+    definite J makes the inertia tensor positive definite too."""
+    half = [binary("*", Num(0.5), binary("-", binary("+", moments[(k + 1) % 3],
+                                                     moments[(k + 2) % 3]), moments[k]))
+            for k in range(3)]
+    pxy, pyz, pzx = products
+    minor = binary("-", binary("*", half[0], half[1]), binary("*", pxy, pxy))
+    # det J = Jxx Jyy Jzz + 2 Pxy Pyz Pzx - Jxx Pyz^2 - Jyy Pzx^2 - Jzz Pxy^2
+    terms = [binary("*", binary("*", half[0], half[1]), half[2]),
+             binary("*", Num(2.0), binary("*", binary("*", pxy, pyz), pzx))]
+    negative = [binary("*", half[0], binary("*", pyz, pyz)),
+                binary("*", half[1], binary("*", pzx, pzx)),
+                binary("*", half[2], binary("*", pxy, pxy))]
+    determinant = binary("+", terms[0], terms[1])
+    for term in negative:
+        determinant = binary("-", determinant, term)
+    what = (f"the products of inertia of '{name}' are too large for its moments: the "
+            "determinant of its second moments")
+    return reader.check_limit(Limit(f"{what} about x and y", minor, "positive", "kg^2*m^4",
+                                    item.value.span)) \
+        and reader.check_limit(Limit(what, determinant, "positive", "kg^3*m^6",
+                                     item.value.span))
 
 
 def read_turns(item: AttributeItem | None, entry: str, reader: AttributeReader

@@ -74,6 +74,9 @@ def _bodies(model: Model, values: list[float]) -> list[str]:
         if body.principal is not None:
             moments = ", ".join(quantity(value, Dim(), values) for value in body.principal)
             parts.append(f"inertia ({moments}) kg*m^2;")
+            if body.products is not None:
+                products = ", ".join(quantity(value, Dim(), values) for value in body.products)
+                parts.append(f"products of inertia ({products}) kg*m^2;")
         else:
             parts.append(f"inertia {quantity(body.inertia, Dim(1, 2), values)};")
         parts.append("points " + ", ".join(p.name for p in body.points))

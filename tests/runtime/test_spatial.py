@@ -147,6 +147,24 @@ def test_a_force_input_at_the_centre_of_mass_acts_as_gravity_does(tmp_path):
     assert np.max(np.abs(rotations(result, "top") - reference["R"])) < 300 * result.tol
 
 
+def test_a_top_given_its_products_of_inertia_follows_the_reference_of_its_tensor(tmp_path):
+    """The moments about the body's axes with the products of inertia (Pxy, Pyz, Pzx), the
+    integrals of x y, y z, z x dm: the tensor's off-diagonal entries are their negatives."""
+    m, pivot = 2.0, (0.01, -0.02, -0.1)
+    tensor = np.array([[0.02, -0.003, 0.002], [-0.003, 0.025, -0.001], [0.002, -0.001, 0.03]])
+    products = (-tensor[0, 1], -tensor[1, 2], -tensor[2, 0])
+    R0, omega0 = rot([1, 0.5, 0], 0.4), (1.0, -2.0, 3.0)
+    text = top_model(m, np.diag(tensor), pivot, R0, omega0, G, 1e-9, 2).replace(
+        "    point tip", f"    products_of_inertia = {vector(products)} kg*m^2\n    point tip")
+    result = compile_text(tmp_path, "products", text).run()
+    reference = heavy_top(result.times, g=np.array(G), m=m, J=tensor, pivot=np.array(pivot),
+                          R0=R0, omega0=np.array(omega0))
+    assert np.max(np.abs(rotations(result, "top") - reference["R"])) < 300 * result.tol
+    principal = heavy_top(result.times, g=np.array(G), m=m, J=np.diag(np.diag(tensor)),
+                          pivot=np.array(pivot), R0=R0, omega0=np.array(omega0))
+    assert np.max(np.abs(principal["R"] - reference["R"])) > 1e4 * result.tol  # they matter
+
+
 def test_a_lagrange_top_precesses_steadily_at_the_closed_form_rate(tmp_path):
     """A symmetric top started in steady precession keeps its tilt and precesses at the
     slow root of A_O W^2 cos(tilt) - C n W + m g l = 0."""
