@@ -23,7 +23,12 @@ every hinge is at zero, so at the hinge angle theta
 and theta is measured by the turn of e about a, within half a turn of the middle of its
 travel (codegen/spatial_assembly.py, hinge_turns: the angle does not jump where atan2
 would). A weld holds R_B = R_A R0 (rows rx, ry, rz), a ball
-joint its points only."""
+joint its points only. A cylindrical joint holds a hinge's axis rows and, instead of its point
+rows, the offset of B's point from A's normal to the axis (a slider's rows normal_1,
+normal_2); a universal joint holds the points and its cross-piece, R_A a . R_B b = 0 (row
+cross), and turns by angle_a about a, then angle_b about b:
+
+    R_B = R_A Rot(a, angle_a) Rot(R0 b, angle_b) R0."""
 
 from __future__ import annotations
 
@@ -73,6 +78,12 @@ def dot(u, v) -> sympy.Expr:
 
 def cross(u, v) -> Vector3:
     return (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
+
+
+def turn_between(u: Vector3, w: Vector3, n: Vector3) -> sympy.Expr:
+    """The turn (rad, within half a turn) that takes u to w about n, all normal to the unit
+    n: atan2((u x w) . n, u . w)."""
+    return sympy.atan2(dot(cross(u, w), n), dot(u, w))
 
 
 def unit(vector) -> Vector3:
@@ -376,15 +387,76 @@ class SpatialKinematics:
                          - 2 * numerator * (sine * rate_s + cosine * rate_c)) / size**2
         return gradient, gamma
 
+    def axis_frame(self, name: str, direction: tuple[ir.Expr, ...]
+                   ) -> tuple[Vector3, Vector3, Vector3]:
+        """A joint's unit axis a (from the IR direction) and two unit normals e, f (named
+        NAME.axis, NAME.e, NAME.f), in the frame the direction is given in."""
+        raw = tuple(self.const(component) for component in direction)
+        defaults = tuple(float(value.subs(self._defaults())) for value in raw)
+        axis = self._named_vector(f"{name}.axis", unit(raw))
+        e, f = normal_pair(axis, defaults)
+        return axis, self._named_vector(f"{name}.e", e), self._named_vector(f"{name}.f", f)
+
     def slider_frame(self, index: int) -> tuple[Vector3, Vector3, Vector3]:
         """A slider's unit axis a and two unit normals e, f in member A's frame (named)."""
         slider = self.model.sliders[index]
-        raw = tuple(self.const(component) for component in slider.axis)
-        defaults = tuple(float(value.subs(self._defaults())) for value in raw)
-        axis = self._named_vector(f"{slider.name}.axis", unit(raw))
-        e, f = normal_pair(axis, defaults)
-        return axis, self._named_vector(f"{slider.name}.e", e), \
-            self._named_vector(f"{slider.name}.f", f)
+        return self.axis_frame(slider.name, slider.axis)
+
+    # -- cylindrical and universal joints ----------------------------------------------------
+
+    def cylindrical_parts(self, index: int) -> dict[str, Vector3]:
+        """A cylindrical joint's vectors in the world: its axis a, normals e, f (fixed in A),
+        the axis and e fixed in B (a_B, e_B: R_B R0^T a, R_B R0^T e) and d = r_b - r_a."""
+        joint = self.model.cylindricals[index]
+        axis, e, f = self.axis_frame(joint.name, joint.axis)
+        relative = self.relative_orientation(joint.a.member, joint.b.member)
+        ra, rb = self.rotation(joint.a.member), self.rotation(joint.b.member)
+        axis_b = self._named_vector(f"{joint.name}.axis_b", times(relative.T, axis))
+        e_b = self._named_vector(f"{joint.name}.e_b", times(relative.T, e))
+        start, end = self.attachment_position(joint.a), self.attachment_position(joint.b)
+        return dict(a=times(ra, axis), e=times(ra, e), f=times(ra, f), a_b=times(rb, axis_b),
+                    e_b=times(rb, e_b), d=tuple(y - x for x, y in zip(start, end)))
+
+    def cylindrical_rows(self, index: int) -> tuple[sympy.Expr, ...]:
+        """normal_1, normal_2 (the offset normal to the axis), axis_1, axis_2 (the axis held
+        in B, as a hinge's)."""
+        v = self.cylindrical_parts(index)
+        return dot(v["e"], v["d"]), dot(v["f"], v["d"]), dot(v["a_b"], v["e"]), \
+            dot(v["a_b"], v["f"])
+
+    def universal_parts(self, index: int) -> dict[str, Vector3]:
+        """A universal joint's unit axes in the world: a (fixed in A), b (fixed in B), and
+        where each would be from the other member with both angles zero: b_A = R_A R0 b,
+        a_B = R_B R0^T a."""
+        joint = self.model.universals[index]
+        name = joint.name
+        axis_a = self._named_vector(f"{name}.axis_a", unit(tuple(map(self.const, joint.axis_a))))
+        axis_b = self._named_vector(f"{name}.axis_b", unit(tuple(map(self.const, joint.axis_b))))
+        relative = self.relative_orientation(joint.a.member, joint.b.member)
+        b_in_a = self._named_vector(f"{name}.b_in_a", times(relative, axis_b))
+        a_in_b = self._named_vector(f"{name}.a_in_b", times(relative.T, axis_a))
+        ra, rb = self.rotation(joint.a.member), self.rotation(joint.b.member)
+        return dict(a=times(ra, axis_a), b=times(rb, axis_b), b_A=times(ra, b_in_a),
+                    a_B=times(rb, a_in_b), axis_a=axis_a, b_in_a=b_in_a)
+
+    def joint_value(self, kind: str, index: int, quantity: str) -> sympy.Expr | None:
+        """A cylindrical joint's angle, rate, position, velocity; a universal joint's
+        angle_a, rate_a, angle_b, rate_b; None for any other quantity (a load)."""
+        if kind == "cylindrical" and quantity in ("angle", "rate"):
+            v = self.cylindrical_parts(index)
+            value = turn_between(v["e"], v["e_b"], v["a"])
+        elif kind == "cylindrical" and quantity in ("position", "velocity"):
+            v = self.cylindrical_parts(index)
+            value = dot(v["a"], v["d"])
+        elif kind == "universal" and quantity in ("angle_a", "rate_a"):
+            v = self.universal_parts(index)
+            value = turn_between(v["b_A"], v["b"], v["a"])
+        elif kind == "universal" and quantity in ("angle_b", "rate_b"):
+            v = self.universal_parts(index)
+            value = -turn_between(v["a_B"], v["a"], v["b"])
+        else:
+            return None
+        return self.rate(value) if quantity.startswith(("rate", "velocity")) else value
 
     def slider_offset(self, index: int) -> Vector3:
         """r_b - r_a of the slider's two attachment points (world frame)."""
@@ -438,10 +510,18 @@ class SpatialKinematics:
         give lambda_2 e - lambda_1 f (e, f its normals in the world; (a, e, f)
         right-handed), normal to its axis (the torque about the axis, a latch's or a stop's,
         is its `torque`); a weld's rows rx, ry, rz give the sum of lambda_k c_k (c_k the
-        columns of R_A R0); a ball joint carries none."""
+        columns of R_A R0); a ball joint carries none; a universal joint's cross row, on B
+        lambda (a x b); a cylindrical joint's axis rows as a hinge's (its normal rows act at
+        B's point: no moment about it)."""
         zero = sympy.Integer(0)
         if kind == "ball":
             return (zero, zero, zero)
+        if kind == "universal":  # the cross row a . b: on B, -lambda (b x a)
+            v = self.universal_parts(index)
+            return tuple(lam["cross"] * c for c in cross(v["a"], v["b"]))
+        if kind == "cylindrical":  # the axis rows as a hinge's; the normal rows act at b's point
+            v = self.cylindrical_parts(index)
+            return tuple(lam["axis_2"] * e - lam["axis_1"] * f for e, f in zip(v["e"], v["f"]))
         if kind == "weld":
             weld = self.model.welds[index]
             if not weld.rotational:
@@ -515,9 +595,10 @@ Row = tuple[str, str, int, int, sympy.Expr]  # name, joint, hinge (or -1), slide
 def spatial_rows(model: ir.Model, kin: SpatialKinematics) -> list[Row]:
     """Every constraint row: each body's six (its rotation matrix's columns of unit length
     and orthogonal), then the hinges' (x, y, z: the reaction force; axis_1, axis_2), the
-    welds' (x, y, z; rx, ry, rz between bodies), the ball joints' (x, y, z) and the sliders'
-    (normal_1, normal_2: the offset normal to the axis; rx, ry, rz unless they move a
-    particle). Only a hinge's force rows name it (its axis rows are its reaction torque
+    welds' (x, y, z; rx, ry, rz between bodies), the ball joints' (x, y, z), the cylindrical
+    joints' (normal_1, normal_2, axis_1, axis_2), the universal joints' (x, y, z, cross) and
+    the sliders' (normal_1, normal_2: the offset normal to the axis; rx, ry, rz unless they
+    move a particle). Only a hinge's force rows name it (its axis rows are its reaction torque
     normal to the axis)."""
     rows: list[Row] = []
     for index, body in enumerate(model.bodies):
@@ -537,6 +618,14 @@ def spatial_rows(model: ir.Model, kin: SpatialKinematics) -> list[Row]:
                 rows.append((f"{weld.name}.{name}", weld.name, -1, -1, residual))
     for ball in model.balls:
         rows += _point_rows(kin, ball, -1)
+    for index, joint in enumerate(model.cylindricals):
+        for name, residual in zip(("normal_1", "normal_2", "axis_1", "axis_2"),
+                                  kin.cylindrical_rows(index)):
+            rows.append((f"{joint.name}.{name}", joint.name, -1, -1, residual))
+    for index, joint in enumerate(model.universals):
+        rows += _point_rows(kin, joint, -1)
+        parts = kin.universal_parts(index)
+        rows.append((f"{joint.name}.cross", joint.name, -1, -1, dot(parts["a"], parts["b"])))
     for index, slider in enumerate(model.sliders):
         for name, residual in zip(("normal_1", "normal_2"), kin.slider_rows(index)):
             rows.append((f"{slider.name}.{name}", slider.name, -1, index, residual))

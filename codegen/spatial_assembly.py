@@ -6,8 +6,10 @@ Each placement puts its child so that the joint's attachment points coincide (a 
 b's point at (x, y, z) from a's in a's frame) and turns it from its parent: a hinge by its
 angle about its axis, a ball or free joint by three turns about the parent's axes x, y, z
 (zero at t = 0: the members' orientations place the child; their rates are the child's
-angular velocity relative to the parent, in the parent's frame), a weld not at all. With every
-joint at zero each member has its `orientation`."""
+angular velocity relative to the parent, in the parent's frame), a cylindrical joint by its
+angle about its axis (and b's point moved along it by its position), a universal joint by
+angle_a about axis_a then angle_b about axis_b (codegen/spatial.py), a weld not at all. With
+every joint at zero each member has its `orientation`."""
 
 from __future__ import annotations
 
@@ -24,7 +26,8 @@ def assemble_spatial(model: ir.Model, kin: SpatialKinematics) -> Assembly:
     state = _Placing(dict(zip(kin.symbols.q, kin.symbols.qd)))
     place = {ir.JointKind.HINGE: _place_hinge, ir.JointKind.WELD: _place_weld,
              ir.JointKind.BALL: _place_ball, ir.JointKind.FREE: _place_free,
-             ir.JointKind.SLIDER: _place_slider}
+             ir.JointKind.SLIDER: _place_slider, ir.JointKind.CYLINDRICAL: _place_cylindrical,
+             ir.JointKind.UNIVERSAL: _place_universal}
     for placement in model.placements:
         _place_at_origin(kin, placement.parent, state)
         place[placement.kind](kin, placement, state)
@@ -118,6 +121,31 @@ def _place_slider(kin: SpatialKinematics, placement: ir.Placement, state: _Placi
     axis = kin.slider_frame(placement.joint)[0]
     _place_turned(kin, slider, placement, sympy.eye(3), state,
                   tuple(s * component for component in axis))
+
+
+def _pair_values(kin: SpatialKinematics, joint, names: tuple[str, str], state: _Placing):
+    """The symbols of a joint's two values (ir.CYLINDRICAL_VALUES, UNIVERSAL_VALUES), named
+    NAME.<names[k]> in the assembly."""
+    return [_joint_value(kin, f"{joint.name}.{name}", joint.initial[2 * k],
+                         joint.initial[2 * k + 1], joint.held[k], state)
+            for k, name in enumerate(names)]
+
+
+def _place_cylindrical(kin: SpatialKinematics, placement: ir.Placement,
+                       state: _Placing) -> None:
+    joint = kin.model.cylindricals[placement.joint]
+    angle, position = _pair_values(kin, joint, ("angle", "position"), state)
+    axis = kin.axis_frame(joint.name, joint.axis)[0]
+    _place_turned(kin, joint, placement, rotation_about(axis, angle), state,
+                  tuple(position * component for component in axis))
+
+
+def _place_universal(kin: SpatialKinematics, placement: ir.Placement, state: _Placing) -> None:
+    joint = kin.model.universals[placement.joint]
+    angle_a, angle_b = _pair_values(kin, joint, ("angle_a", "angle_b"), state)
+    parts = kin.universal_parts(placement.joint)
+    turned = rotation_about(parts["axis_a"], angle_a) * rotation_about(parts["b_in_a"], angle_b)
+    _place_turned(kin, joint, placement, turned, state)
 
 
 def _turn_values(kin: SpatialKinematics, joint, first: int, state: _Placing) -> sympy.Matrix:

@@ -114,8 +114,13 @@ class OutputScope:
         if kind == "spring":
             law = self.springs[index]
             return {"force": law.force, "length": law.length, "rate": law.rate}[quantity]
-        joint = {"hinge": self.kin.model.hinges, "weld": self.kin.model.welds,
-                 "ball": self.kin.model.balls}[kind][index]
+        model = self.kin.model
+        joint = {"hinge": model.hinges, "weld": model.welds, "ball": model.balls,
+                 "cylindrical": model.cylindricals, "universal": model.universals}[kind][index]
+        if kind in ("cylindrical", "universal"):
+            value = self.kin.joint_value(kind, index, quantity)
+            if value is not None:
+                return value
         if quantity.startswith("moment"):
             moment = self.kin.reaction_moment(kind, index, self._row_multipliers(joint.name))
             if quantity == "moment":
@@ -127,7 +132,14 @@ class OutputScope:
             row = self.rows.rows.get((joint.name, "angle"))
             return sympy.Integer(0) if row is None else -self.lam[row]
         axes = "xyz" if self.kin.model.spatial else "xy"
-        force = {f"force_{axis}": self.lam[self.rows.rows[(joint.name, axis)]] for axis in axes}
+        if kind == "cylindrical":  # its normal rows (R_A e) . d, (R_A f) . d: on B -lambda e ...
+            parts, lam = self.kin.cylindrical_parts(index), self._row_multipliers(joint.name)
+            force = {f"force_{axis}": -(lam["normal_1"] * parts["e"][k]
+                                        + lam["normal_2"] * parts["f"][k])
+                     for k, axis in enumerate(axes)}
+        else:
+            force = {f"force_{axis}": self.lam[self.rows.rows[(joint.name, axis)]]
+                     for axis in axes}
         force["force"] = sympy.sqrt(sympy.Add(*(value**2 for value in force.values())))
         return force[quantity]
 

@@ -1,7 +1,8 @@
 """The assembly tree: in which order the joints place the members at t = 0.
 
 Breadth-first from the ground; from each placed member, its joints are visited in
-declaration order, hinges, then sliders, welds, ball joints and free joints. A joint whose other member is
+declaration order, hinges, then sliders, welds, ball, cylindrical and universal joints, and
+free joints. A joint whose other member is
 not yet placed places it (a Placement); a joint whose members are both placed closes a loop
 (a free joint cannot: E049). Members with no joint path to the ground start trees of their
 own at the origin (warning W001, once per tree), unless a free joint places them.
@@ -12,19 +13,26 @@ from __future__ import annotations
 from collections import deque
 
 from .errors import Reporter
-from .ir import Ball, FreeJoint, Hinge, JointKind, Member, MemberKind, Placement, Slider, Weld
+from .ir import (Ball, Cylindrical, FreeJoint, Hinge, JointKind, Member, MemberKind, Placement,
+                 Slider, Universal, Weld)
 
 
 def assemble(hinges: tuple[Hinge, ...], sliders: tuple[Slider, ...],
              members: list[tuple[Member, str, object]], report: Reporter,
              welds: tuple[Weld, ...] = (), free_joints: tuple[FreeJoint, ...] = (),
-             balls: tuple[Ball, ...] = ()) -> tuple[tuple[Placement, ...], tuple[tuple[JointKind, int], ...]]:
+             balls: tuple[Ball, ...] = (), cylindricals: tuple[Cylindrical, ...] = (),
+             universals: tuple[Universal, ...] = ()
+             ) -> tuple[tuple[Placement, ...], tuple[tuple[JointKind, int], ...]]:
     """(placements, loop_joints). `members` lists (member, description, span) of every
     body, beam and particle in declaration order, for the floating-member warning."""
     joints = [(JointKind.HINGE, i, h.a.member, h.b.member) for i, h in enumerate(hinges)]
     joints += [(JointKind.SLIDER, i, s.a.member, s.b.member) for i, s in enumerate(sliders)]
     joints += [(JointKind.WELD, i, w.a.member, w.b.member) for i, w in enumerate(welds)]
     joints += [(JointKind.BALL, i, j.a.member, j.b.member) for i, j in enumerate(balls)]
+    joints += [(JointKind.CYLINDRICAL, i, j.a.member, j.b.member)
+               for i, j in enumerate(cylindricals)]
+    joints += [(JointKind.UNIVERSAL, i, j.a.member, j.b.member)
+               for i, j in enumerate(universals)]
     touching: dict[Member, list] = {}  # member -> its joints, in the order of `joints`
     for joint in joints:
         for end in dict.fromkeys(joint[2:]):

@@ -102,6 +102,13 @@ SPECS: dict[str, tuple[AttrSpec, ...]] = {
                                               "angle(A); default 0"),),
     "free": (),
     "ball": (),
+    "cylindrical": (AttrSpec("axis", None, True,
+                             meaning="the axis, a direction in member A's frame"),),
+    "universal": (AttrSpec("axis_a", None, True,
+                           meaning="the cross-piece's axis in member A, in A's frame"),
+                  AttrSpec("axis_b", None, True,
+                           meaning="its axis in member B, in B's frame: normal to axis_a "
+                                   "where the members' orientations place them")),
     # A point-to-point spring-damper (ir.Spring); `acts` is read by dedicated code.
     "spring": (AttrSpec("stiffness", _LINEAR_STIFFNESS, False, "nonnegative",
                         meaning="force per length change: `-stiffness (L - free_length)`"),
@@ -185,6 +192,7 @@ def read_block(block: Block | None, kind: str, owner: str, owner_span: Span,
 
 def _add_hint(spec: AttrSpec) -> str:
     examples = {"elements": "elements = 4", "axis": "axis = (1, 0)",
+                "axis_a": "axis_a = (0, 0, 1)", "axis_b": "axis_b = (1, 0, 0)",
                 "orientation": "orientation = rz(30 deg)",
                 "angles": "angles = h1 - h2", "acts": "acts = push"}
     if spec.dim is None:

@@ -160,11 +160,14 @@ class ExprResolver:
         elif symbol.kind == "system":
             message = "the system has no value of its own"
             hint = "write one of its quantities, e.g. system.momentum_x, system.kinetic_energy"
-        elif symbol.kind in ("weld", "spring", "free", "ball"):
+        elif symbol.kind in ("weld", "spring", "free", "ball", "cylindrical", "universal"):
             message = f"{symbol.describe()} has no value of its own"
             hint = {"weld": f"its loads: {name}.force_x, {name}.force_y, {name}.torque",
                     "spring": f"its force, length and rate: {name}.force, {name}.length, "
-                              f"{name}.rate"}.get(symbol.kind, "")
+                              f"{name}.rate",
+                    "cylindrical": f"its angle and position: {name}.angle, {name}.position",
+                    "universal": f"its angles: {name}.angle_a, {name}.angle_b"
+                    }.get(symbol.kind, "")
         elif symbol.kind in ("hinge", "slider"):
             message = f"{symbol.describe()} can be used only in outputs and cable angles"
             hint = ""

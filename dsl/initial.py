@@ -36,12 +36,22 @@ _SPATIAL_VALUES.update({
     ("free", "wx"): ("initial_wx", _RATE), ("free", "wy"): ("initial_wy", _RATE),
     ("free", "wz"): ("initial_wz", _RATE), ("ball", "wx"): ("initial_wx", _RATE),
     ("ball", "wy"): ("initial_wy", _RATE), ("ball", "wz"): ("initial_wz", _RATE),
+    ("cylindrical", ""): ("initial_angle", ANGLE), ("cylindrical", "rate"): ("initial_rate", _RATE),
+    ("cylindrical", "position"): ("initial_position", LENGTH),
+    ("cylindrical", "velocity"): ("initial_velocity", _VELOCITY),
+    ("universal", "angle_a"): ("initial_angle_a", ANGLE),
+    ("universal", "rate_a"): ("initial_rate_a", _RATE),
+    ("universal", "angle_b"): ("initial_angle_b", ANGLE),
+    ("universal", "rate_b"): ("initial_rate_b", _RATE),
 })
 _HOW = {"hinge": "{n} = ... or {n}.rate = ...", "slider": "{n} = ... or {n}.rate = ...",
         "free": "{n}.x, {n}.y, {n}.angle, {n}.vx, {n}.vy or {n}.omega = ...",
         "ball": "{n}.wx, {n}.wy or {n}.wz = ... (its orientation is its members')"}
 _SPATIAL_HOW = {**_HOW, "free": "{n}.x, {n}.y, {n}.z, {n}.vx, {n}.vy, {n}.vz, {n}.wx, {n}.wy "
-                                "or {n}.wz = ... (its orientation is its members')"}
+                                "or {n}.wz = ... (its orientation is its members')",
+                "cylindrical": "{n} = ... (its angle), {n}.rate, {n}.position or {n}.velocity "
+                               "= ...",
+                "universal": "{n}.angle_a, {n}.rate_a, {n}.angle_b or {n}.rate_b = ..."}
 
 
 class InitialValues:
@@ -75,13 +85,14 @@ class InitialValues:
         name = item.name.text
         symbol = symbols.get(name)
         if symbol is None:
-            joints = symbols.names_of_kind(*_HOW)
+            joints = symbols.names_of_kind(*_SPATIAL_HOW)
             report.error("E010", f"unknown name '{name}'", item.name.span,
                          hint=did_you_mean(name, joints) or f"joints: {join_names(joints)}")
             return
-        if symbol.kind not in _HOW:
+        if symbol.kind not in _SPATIAL_HOW:
             report.error("E045", f"{symbol.describe()} has no initial value: initial values "
-                         "are given for hinges, sliders, free and ball joints", item.name.span,
+                         "are given for hinges, sliders, free, ball, cylindrical and universal "
+                         "joints", item.name.span,
                          hint=_not_a_joint_hint(symbol))
             return
         prop = item.sub.text if item.sub else ""

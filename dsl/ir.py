@@ -148,10 +148,13 @@ class BeamQuantity:
 
 @dataclass(frozen=True, slots=True)
 class JointLoad:
-    """A load a connector carries (outputs only). kind "hinge": force_x, force_y, force (the
-    force on member b from member a, world frame, N), torque (its lock torque, N*m, nan while
-    nothing holds it); "weld": the same, torque the moment the weld holds; "spring": force
-    (along its line, positive pushing apart, N), length (m), rate (m/s)."""
+    """A load or value a connector carries (outputs only). kind "hinge": force_x, force_y,
+    force (the force on member b from member a, world frame, N), torque (its lock torque,
+    N*m, nan while nothing holds it); "weld": the same, torque the moment the weld holds;
+    "spring": force (along its line, positive pushing apart, N), length (m), rate (m/s); in
+    a spatial model also force_z and moment_x, ... (dsl/state_refs.py, SPATIAL_LOADS), a
+    cylindrical joint's angle, rate, position, velocity and a universal joint's angle_a,
+    rate_a, angle_b, rate_b."""
 
     kind: str
     index: int
@@ -418,6 +421,49 @@ class Ball:
     span: Span
 
 
+# The initial values of a cylindrical joint (value, rate suffixes): its turn about the axis
+# and its displacement along it.
+CYLINDRICAL_VALUES = (("initial_angle", "initial_rate"), ("initial_position", "initial_velocity"))
+# A universal joint's: its turn about axis_a (in A), then about axis_b (in B).
+UNIVERSAL_VALUES = (("initial_angle_a", "initial_rate_a"), ("initial_angle_b", "initial_rate_b"))
+
+
+@dataclass(frozen=True, slots=True)
+class Cylindrical:
+    """A cylindrical joint of a spatial model: b's point moves along `axis` (member a's
+    frame) through a's point and b turns about it (rows: the offset normal to the axis, and
+    the axis held in b). `initial` holds (angle, rate, position, velocity) in
+    CYLINDRICAL_VALUES order: the turn from the members' orientations (rad) and the
+    displacement of b's point from a's along the axis (m). `held` per pair, as a free
+    joint's."""
+
+    name: str
+    a: Attachment
+    b: Attachment
+    axis: tuple[Expr, Expr, Expr]
+    initial: tuple[Expr, ...]
+    held: tuple[int, ...]
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class Universal:
+    """A universal (Hooke's) joint of a spatial model: the points coincide and `axis_a`
+    (member a's frame) stays normal to `axis_b` (member b's frame), the cross-piece between
+    them; they are normal where the members' orientations place them (a range check). b is
+    turned from its orientation by angle_a about axis_a, then angle_b about axis_b;
+    `initial` holds (angle_a, rate_a, angle_b, rate_b) in UNIVERSAL_VALUES order."""
+
+    name: str
+    a: Attachment
+    b: Attachment
+    axis_a: tuple[Expr, Expr, Expr]
+    axis_b: tuple[Expr, Expr, Expr]
+    initial: tuple[Expr, ...]
+    held: tuple[int, ...]
+    span: Span
+
+
 class SpringActs(Enum):
     BOTH = "both"  # pushes and pulls
     PUSH = "push"  # only while shorter than its free length, and never pulls (a kick-off spring)
@@ -502,6 +548,8 @@ class JointKind(Enum):
     WELD = "weld"
     FREE = "free"
     BALL = "ball"
+    CYLINDRICAL = "cylindrical"
+    UNIVERSAL = "universal"
 
 
 @dataclass(frozen=True, slots=True)
@@ -589,3 +637,5 @@ class Model:
     springs: tuple[Spring, ...] = ()
     spatial: bool = False  # a 3-D model (`model NAME spatial`)
     balls: tuple[Ball, ...] = ()
+    cylindricals: tuple[Cylindrical, ...] = ()
+    universals: tuple[Universal, ...] = ()

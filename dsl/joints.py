@@ -109,25 +109,28 @@ def resolve_hinge(statement: JointStmt, symbols: SymbolTable, reader: AttributeR
     return fields
 
 
-def read_axis(item, name: str, reader: AttributeReader) -> tuple[Expr, ...] | None:
-    """A spatial hinge's axis: a direction vector (any length but zero); None after an error
-    (E060 in a planar model, whose hinges all turn about z)."""
+def read_axis(item, name: str, reader: AttributeReader, attribute: str = "axis"
+              ) -> tuple[Expr, ...] | None:
+    """A spatial joint's axis (`attribute`): a direction vector (any length but zero), as
+    the entries NAME.ATTRIBUTE_x, _y, _z; None after an error (E060 in a planar model, whose
+    hinges all turn about z)."""
     if not reader.spatial:
         reader.report.error("E060", "a hinge of a planar model turns about z: it takes no axis",
                             item.name.span, hint="declare the model spatial (`model NAME "
                                                  "spatial`) for hinges about other axes")
         return None
     if not isinstance(item.value, VectorLit):
-        reader.report.error("E023", "axis takes a direction vector, e.g. axis = (0, 0, 1)",
-                            item.value.span)
+        reader.report.error("E023", f"{attribute} takes a direction vector, e.g. {attribute} "
+                            "= (0, 0, 1)", item.value.span)
         return None
-    axis = read_vector(reader, item.value, NONE, "axis",
-                       tuple(f"{name}.axis_{k}" for k in "xyz"))
+    axis = read_vector(reader, item.value, NONE, attribute,
+                       tuple(f"{name}.{attribute}_{k}" for k in "xyz"))
     if axis is None:
         return None
     size = binary("+", binary("+", call("abs", (axis[0],)), call("abs", (axis[1],))),
                   call("abs", (axis[2],)))
-    if not reader.check_limit(Limit(f"{name}.axis", size, "nonzero", "", item.value.span)):
+    if not reader.check_limit(Limit(f"{name}.{attribute}", size, "nonzero", "",
+                                    item.value.span)):
         return None
     return axis
 
@@ -258,6 +261,48 @@ def resolve_ball(statement: JointStmt, symbols: SymbolTable, reader: AttributeRe
     if ends is None:
         return None
     return dict(name=name, a=ends[0][1], b=ends[1][1], span=statement.span)
+
+
+def resolve_cylindrical(statement: JointStmt, symbols: SymbolTable, reader: AttributeReader
+                        ) -> dict | None:
+    """A cylindrical joint's fields except its initial values; None when it has errors."""
+    return _axial_joint(statement, symbols, reader, ("axis",))
+
+
+def resolve_universal(statement: JointStmt, symbols: SymbolTable, reader: AttributeReader
+                      ) -> dict | None:
+    """A universal joint's fields except its initial values (the axes' being normal where
+    the members' orientations place them is checked once the members are known:
+    dsl/resolve.py); None when it has errors."""
+    return _axial_joint(statement, symbols, reader, ("axis_a", "axis_b"))
+
+
+def _axial_joint(statement: JointStmt, symbols: SymbolTable, reader: AttributeReader,
+                 axes: tuple[str, ...]) -> dict | None:
+    """The fields of a spatial joint between two bodies defined by its axes."""
+    name = statement.name.text
+    kind = statement.kind
+    word = "a cylindrical joint" if kind == "cylindrical" else "a universal joint"
+    if not reader.spatial:
+        reader.report.error("E060", f"{word} needs a spatial model", statement.span,
+                            hint="declare the model spatial (`model NAME spatial`); in a plane "
+                                 "use a hinge or a slider")
+        return None
+    found = read_block(statement.block, kind, f"{word.removeprefix('a ')} '{name}'",
+                       statement.name.span, reader.report)
+    ends = _joint_ends(statement, symbols, reader)
+    fields = {axis: read_axis(found[axis], name, reader, axis) if axis in found else None
+              for axis in axes}
+    particle = particle_end(ends) if ends is not None else None
+    if particle is not None:
+        reader.report.error("E048", f"{word.removeprefix('a ')} '{name}' joins "
+                            f"{particle.describe()}, which has no orientation to carry its "
+                            "axis", statement.span,
+                            hint="join the particle by a ball joint or a slider")
+        return None
+    if ends is None or None in fields.values():
+        return None
+    return dict(name=name, a=ends[0][1], b=ends[1][1], span=statement.span, **fields)
 
 
 def resolve_spring(statement: JointStmt, symbols: SymbolTable, reader: AttributeReader

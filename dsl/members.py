@@ -7,7 +7,7 @@ from collections.abc import Mapping
 
 from .attributes import SPECS, AttributeReader, read_block
 from .errors import Reporter, join_names
-from .evaluate import Typed, binary
+from .evaluate import Typed, binary, call, negate
 from .expressions import Context
 from .ir import Beam, Body, Dim, Expr, Ground, Limit, Model, Num, Particle, Point, Span, Turn
 from .syntax import (AttributeItem, BinaryOp, CallExpr, GravityStmt, GroundStmt, MemberStmt,
@@ -230,6 +230,42 @@ def _check_products(moments, products, name: str, item: AttributeItem,
                                     item.value.span)) \
         and reader.check_limit(Limit(what, determinant, "positive", "kg^3*m^6",
                                      item.value.span))
+
+
+def turns_matrix(turns: tuple[Turn, ...]) -> list[list[Expr]]:
+    """The rotation matrix of an orientation (R = R_1 R_2 ..., ir.Turn) as expressions."""
+    matrix: list[list[Expr]] = [[Num(float(i == j)) for j in range(3)] for i in range(3)]
+    for factor in turns:
+        k = "xyz".index(factor.axis)
+        i, j = (k + 1) % 3, (k + 2) % 3
+        c, s = call("cos", (factor.angle,)), call("sin", (factor.angle,))
+        step: list[list[Expr]] = [[Num(float(r == q)) for q in range(3)] for r in range(3)]
+        step[i][i], step[i][j], step[j][i], step[j][j] = c, negate(s), s, c
+        matrix = [[_sum(binary("*", matrix[r][m], step[m][q]) for m in range(3)
+                        if step[m][q] != Num(0.0) and matrix[r][m] != Num(0.0))
+                   for q in range(3)] for r in range(3)]
+    return matrix
+
+
+def normal_cosine(axis_a: tuple[Expr, ...], turns_a: tuple[Turn, ...],
+                  axis_b: tuple[Expr, ...], turns_b: tuple[Turn, ...]) -> Expr:
+    """The cosine of the angle between axis_a (in a frame oriented by turns_a) and axis_b (in
+    one oriented by turns_b), both in the world: (O_a a) . (O_b b) / (|a| |b|)."""
+    world = []
+    for axis, turns in ((axis_a, turns_a), (axis_b, turns_b)):
+        matrix = turns_matrix(turns)
+        world.append([_sum(binary("*", matrix[r][m], axis[m]) for m in range(3)
+                           if matrix[r][m] != Num(0.0)) for r in range(3)])
+    dot = _sum(binary("*", u, v) for u, v in zip(*world))
+    norms = [call("sqrt", (_sum(binary("*", c, c) for c in axis),)) for axis in (axis_a, axis_b)]
+    return binary("/", dot, binary("*", norms[0], norms[1]))
+
+
+def _sum(terms) -> Expr:
+    total: Expr = Num(0.0)
+    for term in terms:
+        total = binary("+", total, term)
+    return total
 
 
 def read_turns(item: AttributeItem | None, entry: str, reader: AttributeReader

@@ -25,11 +25,13 @@ BUILT_IN = ("ground", "system")
 KIND_WORDS = {
     "param": "parameter", "bar": "bar", "body": "body", "beam": "beam", "particle": "particle",
     "hinge": "hinge", "slider": "slider", "weld": "weld", "free": "free joint", "ball": "ball joint",
+    "cylindrical": "cylindrical joint", "universal": "universal joint",
     "spring": "spring", "cable": "cable", "output": "output", "input": "input",
     "ground": "the ground", "system": "the system",
 }
 MEMBER_KINDS = ("bar", "body", "beam", "particle", "ground")
-JOINT_KINDS = ("hinge", "slider", "weld", "free", "ball")  # connectors that are joints
+# connectors that are joints
+JOINT_KINDS = ("hinge", "slider", "weld", "free", "ball", "cylindrical", "universal")
 # Every rigid member (and a particle) has the point `cm`, its centre of mass; a bar and a
 # beam have their ends `a` and `b`.
 BUILT_IN_POINTS = {"bar": ("a", "b", "cm"), "body": ("cm",), "particle": ("cm",),
@@ -116,7 +118,9 @@ def _declare(table: SymbolTable, ident, kind: str, report: Reporter) -> bool:
             else "the ground" if name == "ground" \
             else "reserved for the system's quantities (system.momentum_x, ...)" \
             if name == "system" else "a built-in constant"
-        report.error("E014", f"'{name}' is {what} and cannot name a {KIND_WORDS[kind]}",
+        word = KIND_WORDS[kind]
+        article = "an" if word[0] in "aeiou" else "a"
+        report.error("E014", f"'{name}' is {what} and cannot name {article} {word}",
                      ident.span, hint="choose another name")
         return False
     if name in table.symbols:

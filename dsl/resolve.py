@@ -13,14 +13,17 @@ import hashlib
 from .assembly import assemble
 from .attributes import SPECS, AttributeReader, ParamVector, read_block
 from .errors import Reporter, at, file_span, sort_key
-from .evaluate import EvaluationError, Typed, evaluate, param_indices
+from .evaluate import EvaluationError, Typed, call, evaluate, param_indices
 from .expressions import Context, ExprResolver, ParamInfo
 from .initial import InitialValues
-from .ir import (FREE_VALUES, SPATIAL_FREE_VALUES, TURN_VALUES, Ball, Beam, Body, Cable, Expr, FreeJoint, Ground, Hinge, InputKind,
-                 JointKind, MemberKind, Model, Num, Output, Param, ParamKind, Particle,
-                 Simulation, Slider, StructuralParam)
-from .joints import (resolve_ball, resolve_cable, resolve_free, resolve_hinge, resolve_slider,
-                     resolve_spring, resolve_weld)
+from .ir import (CYLINDRICAL_VALUES, FREE_VALUES, SPATIAL_FREE_VALUES, TURN_VALUES,
+                 UNIVERSAL_VALUES, Ball, Beam, Body, Cable, Cylindrical, Expr, FreeJoint, Ground,
+                 Hinge, InputKind, JointKind, Limit, MemberKind, Model, Num, Output, Param,
+                 ParamKind, Particle, Simulation, Slider, StructuralParam, Universal)
+from .joints import (resolve_ball, resolve_cable, resolve_cylindrical, resolve_free,
+                     resolve_hinge, resolve_slider, resolve_spring, resolve_universal,
+                     resolve_weld)
+from .members import normal_cosine
 from .members import check_element_total, resolve_gravity, resolve_ground, resolve_member
 from .names import collect_symbols
 from .repeat import expand
@@ -31,6 +34,9 @@ from .syntax import (CableStmt, GravityStmt, GroundStmt, InitialStmt, InputStmt,
 from .units import si_text
 
 DEFAULT_SIMULATION = Simulation(t_end=10.0, tol=1e-8, dt_out=0.01)
+# How far from normal a universal joint's axes may be at its placement: round-off of the
+# orientations' turns (a turn written in degrees is pi/2 to 1e-16).
+UNIVERSAL_NORMAL = 1e-9
 _SINGLE = (ModelStmt, GravityStmt, GroundStmt, SimulateStmt)  # at most one of each
 # Elements of planar models that spatial models do not have yet, as messages name them.
 _PLANAR_ONLY = {"beam": "flexible beams"}
@@ -69,6 +75,8 @@ class _ModelBuilder:
         self.welds: list = []
         self.free_joints: list[dict | None] = []
         self.balls: list[dict | None] = []
+        self.cylindricals: list[dict | None] = []
+        self.universals: list[dict | None] = []
         self.springs: list = []
         self.cables: list[Cable | None] = []
         self.outputs: list[Output | None] = []
@@ -89,6 +97,7 @@ class _ModelBuilder:
         if self.ground is None:
             self.ground = resolve_ground(None, self.reader, self.source.filename)
         check_element_total([m for m in self.members if isinstance(m, Beam)], self.report)
+        self._check_universal_axes()
         if self.report.has_errors:
             return None
         self._warn_unused_params()
@@ -166,7 +175,9 @@ class _ModelBuilder:
             return
         read = {"hinge": (self.hinges, resolve_hinge), "slider": (self.sliders, resolve_slider),
                 "weld": (self.welds, resolve_weld), "free": (self.free_joints, resolve_free),
-                "ball": (self.balls, resolve_ball), "spring": (self.springs, resolve_spring)}
+                "ball": (self.balls, resolve_ball), "spring": (self.springs, resolve_spring),
+                "cylindrical": (self.cylindricals, resolve_cylindrical),
+                "universal": (self.universals, resolve_universal)}
         found, resolve_kind = read[statement.kind]
         found.append(resolve_kind(statement, self.symbols, self.reader))
 
@@ -245,7 +256,8 @@ class _ModelBuilder:
 
     def _model(self) -> Model:
         parts = (self.members, self.hinges, self.sliders, self.cables, self.outputs,
-                 self.inputs, self.welds, self.free_joints, self.springs, self.balls)
+                 self.inputs, self.welds, self.free_joints, self.springs, self.balls,
+                 self.cylindricals, self.universals)
         assert self.gravity is not None and all(None not in p for p in parts), \
             "an element failed without an error"
         hinges = tuple(Hinge(**h, initial_angle=self._initial(h["name"], "initial_angle"),
@@ -258,13 +270,19 @@ class _ModelBuilder:
                         for s in self.sliders)
         free_joints = tuple(self._free_joint(f) for f in self.free_joints)
         balls = tuple(Ball(**fields, **self._turns(fields["name"])) for fields in self.balls)
+        cylindricals = tuple(
+            Cylindrical(**fields, **self._free_values(fields["name"], CYLINDRICAL_VALUES))
+            for fields in self.cylindricals)
+        universals = tuple(
+            Universal(**fields, **self._free_values(fields["name"], UNIVERSAL_VALUES))
+            for fields in self.universals)
         bodies = tuple(m for m in self.members if isinstance(m, Body))
         beams = tuple(m for m in self.members if isinstance(m, Beam))
         particles = tuple(m for m in self.members if isinstance(m, Particle))
         members = [(s.member, s.describe(), s.span)
                    for s in self.symbols.of_kind("bar", "body", "beam", "particle")]
         placements, loops = assemble(hinges, sliders, members, self.report, tuple(self.welds),
-                                     free_joints, balls)
+                                     free_joints, balls, cylindricals, universals)
         self._check_loop_sliders(sliders, loops)
         self._check_particle_hinges(hinges)
         if not members:
@@ -283,7 +301,24 @@ class _ModelBuilder:
             limits=tuple(self.reader.limits), inputs=tuple(self.inputs),
             structural=self.structural, particles=particles, welds=tuple(self.welds),
             free_joints=free_joints, springs=tuple(self.springs), spatial=self.spatial,
-            balls=balls)
+            balls=balls, cylindricals=cylindricals, universals=universals)
+
+    def _check_universal_axes(self) -> None:
+        """E025 unless each universal joint's axes are normal where the members' orientations
+        place them (a range check, so a study that turns a member is held to it too)."""
+        bodies = [m for m in self.members if isinstance(m, Body)]
+        for fields in self.universals:
+            if fields is None:
+                continue
+            turns = [bodies[end.member.index].orientation
+                     if end.member.kind is MemberKind.BODY else ()
+                     for end in (fields["a"], fields["b"])]
+            cosine = normal_cosine(fields["axis_a"], turns[0], fields["axis_b"], turns[1])
+            name = fields["name"]
+            self.reader.check_limit(Limit(
+                f"the cosine of the angle between {name}.axis_a and {name}.axis_b where the "
+                "members' orientations place them", call("abs", (cosine,)), "below", "",
+                fields["span"], Num(UNIVERSAL_NORMAL), "1e-9 (they must be normal)"))
 
     def _initial(self, joint: str, suffix: str) -> Expr:
         value = self.initial.get(joint, suffix)

@@ -44,7 +44,13 @@ SPATIAL_REACTIONS = {"force_x": FORCE, "force_y": FORCE, "force_z": FORCE, "forc
                      "moment_x": TORQUE, "moment_y": TORQUE, "moment_z": TORQUE,
                      "moment": TORQUE}
 SPATIAL_LOADS = {"hinge": {**SPATIAL_REACTIONS, "torque": TORQUE}, "weld": SPATIAL_REACTIONS,
-                 "ball": SPATIAL_REACTIONS, "spring": LOADS["spring"]}
+                 "ball": SPATIAL_REACTIONS, "spring": LOADS["spring"],
+                 "cylindrical": {"angle": ANGLE, "rate": Dim(angle=1, time=-1),
+                                 "position": LENGTH, "velocity": VELOCITY,
+                                 **SPATIAL_REACTIONS},
+                 "universal": {"angle_a": ANGLE, "rate_a": Dim(angle=1, time=-1),
+                               "angle_b": ANGLE, "rate_b": Dim(angle=1, time=-1),
+                               **SPATIAL_REACTIONS}}
 # A spatial model's: positions and velocities have z; a body's orientation is its rotation
 # matrix R (body frame to world, entries R11 ... R33) and its angular velocity (wx, wy, wz)
 # is in the world frame.
@@ -92,7 +98,8 @@ def resolve_dotted(resolver: ExprResolver, node: NameRef, in_output: bool) -> Ty
         return None
     if symbol.kind == "system":
         return _system_quantity(resolver, node)
-    if symbol.kind in ("hinge", "slider", "weld", "spring", "free", "ball"):
+    if symbol.kind in ("hinge", "slider", "weld", "spring", "free", "ball", "cylindrical",
+                       "universal"):
         return _joint_property(resolver, symbol, node)
     if len(node.parts) == 2:
         return _member_quantity(resolver, symbol, node.parts[1], node)

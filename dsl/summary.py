@@ -25,6 +25,7 @@ _RATE = Dim(time=-1, angle=1)
 _SPATIAL_FREE_NAMES = ("x", "vx", "y", "vy", "z", "vz", "turn_x", "wx", "turn_y", "wy",
                        "turn_z", "wz")
 _SPATIAL_FREE_DIMS = (Dim(length=1), Dim(length=1, time=-1)) * 3 + (ANGLE, _RATE) * 3
+_SLIDE = (Dim(length=1), Dim(length=1, time=-1))
 
 
 def summary(model: Model) -> str:
@@ -33,7 +34,8 @@ def summary(model: Model) -> str:
     lines = [f"model {model.name}" + (f": {model.description}" if model.description else ""),
              f"source {model.source_file} (sha256 {model.source_sha256[:12]})", ""]
     for section in (_bodies, _particles, _beams, _hinges, _sliders, _welds, _balls,
-                    _free_joints, _springs, _cables, _sizes, _settings, _params, _outputs, _inputs, _warnings):
+                    _axial_joints, _free_joints, _springs, _cables, _sizes, _settings, _params,
+                    _outputs, _inputs, _warnings):
         lines += section(model, values)
     return "\n".join(lines).rstrip() + "\n"
 
@@ -128,6 +130,28 @@ def _balls(model: Model, values: list[float]) -> list[str]:
                  if value != Num(0.0)]
         lines += _wrap_items(f"  {ball.name:<12} {_ends(model, ball)}; initial", given
                              or ["no relative turn"])
+    return lines
+
+
+def _axial_joints(model: Model, values: list[float]) -> list[str]:
+    """Cylindrical and universal joints: their axes and the initial values given."""
+    lines = []
+    for title, joints, axes, names, dims in (
+            ("cylindrical joints", model.cylindricals, ("axis",),
+             ("angle", "rate", "position", "velocity"), (ANGLE, _RATE) + _SLIDE),
+            ("universal joints", model.universals, ("axis_a", "axis_b"),
+             ("angle_a", "rate_a", "angle_b", "rate_b"), (ANGLE, _RATE) * 2)):
+        if not joints:
+            continue
+        lines.append(f"{title} ({len(joints)})")
+        for joint in joints:
+            directions = [f"{axis} ({', '.join(quantity(c, Dim(), values) for c in value)})"
+                          for axis in axes for value in (getattr(joint, axis),)]
+            given = [f"{name} {quantity(value, dim, values)}" for name, value, dim
+                     in zip(names, joint.initial, dims) if value != Num(0.0)]
+            lines += _wrap_items(f"  {joint.name:<12} {_ends(model, joint)}; "
+                                 f"{', '.join(directions)}; initial", given
+                                 or ["as the orientations place it"])
     return lines
 
 
@@ -233,6 +257,7 @@ def _spatial_sizes(model: Model) -> list[str]:
     """A spatial model's coordinates and rows (codegen/spatial.py) and its mobility count."""
     coordinates = 12 * len(model.bodies) + 3 * len(model.particles)
     joint_rows = (5 * len(model.hinges) + 3 * len(model.balls)
+                  + 4 * len(model.cylindricals) + 4 * len(model.universals)
                   + sum(6 if w.rotational else 3 for w in model.welds)
                   + sum(2 if s.b.member.kind is MemberKind.PARTICLE else 5
                         for s in model.sliders))
@@ -240,7 +265,8 @@ def _spatial_sizes(model: Model) -> list[str]:
     mobility = 6 * len(model.bodies) + 3 * len(model.particles) - joint_rows
     text = (f"coordinates {coordinates} (12 per rigid body: centre of mass and rotation matrix"
             f"{', 3 per particle' if model.particles else ''}); constraints {rows} (6 per body, "
-            f"5 per hinge or slider, 3 per ball joint, 6 per weld); Grubler count {mobility} (rows "
+            f"5 per hinge or slider, 3 per ball joint, 4 per cylindrical or universal joint, 6 "
+            f"per weld); Grubler count {mobility} (rows "
             "that are redundant raise the true mobility above it)")
     return ["", *_wrap(text), *_assembly(model)]
 
@@ -257,7 +283,8 @@ def _assembly(model: Model) -> list[str]:
 
 def _joint_name(model: Model, kind: str, index: int) -> str:
     return {"hinge": model.hinges, "slider": model.sliders, "weld": model.welds,
-            "free": model.free_joints, "ball": model.balls}[kind][index].name
+            "free": model.free_joints, "ball": model.balls, "cylindrical": model.cylindricals,
+            "universal": model.universals}[kind][index].name
 
 
 def _settings(model: Model, values: list[float]) -> list[str]:

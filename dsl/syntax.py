@@ -16,12 +16,12 @@ from .ir import Span
 
 # The words that start statements, and all keywords of the grammar.
 STATEMENT_WORDS = ("model", "param", "gravity", "ground", "bar", "body", "beam", "particle",
-                   "hinge", "slider", "weld", "free", "ball", "spring", "cable", "initial",
-                   "simulate", "output", "input")
+                   "hinge", "slider", "weld", "free", "ball", "cylindrical", "universal",
+                   "spring", "cable", "initial", "simulate", "output", "input")
 KEYWORDS = frozenset(STATEMENT_WORDS + ("joins", "to", "point", "for"))
 # keywords the syntax tree keeps
 KIND_WORDS = ("bar", "body", "beam", "particle", "hinge", "slider", "weld", "free", "ball",
-              "spring")
+              "cylindrical", "universal", "spring")
 # Words of the input statement only (`input T torque on h1`): keywords there, names elsewhere.
 INPUT_WORDS = ("torque", "force", "on")
 # The word of the for statement only (`for i in 1..N`): a keyword there, a name elsewhere.
@@ -219,7 +219,7 @@ class JointStmt:
     """A connector between two member points: a joint (hinge, slider, weld, free) or a
     point-to-point spring-damper."""
 
-    kind: str  # "hinge", "slider", "weld", "free", "ball" or "spring"
+    kind: str  # "hinge", "slider", "weld", "free", "ball", "cylindrical", "universal", "spring"
     name: Ident
     a: AttachmentRef
     b: AttachmentRef

@@ -26,6 +26,7 @@ def random_states(module: ModuleType, count: int = 3, seed: int = 7) -> list[Sta
     defaults = np.array(module.PARAMETER_DEFAULTS)
     for _ in range(count):
         p = _moments_together(module, defaults, defaults * rng.uniform(0.9, 1.1, module.NP))
+        p = universal_axes_kept(module, defaults, p)
         q0, _ = initial_state(module, p)
         q = q0 + 0.05 * rng.standard_normal(module.NQ)
         states.append(State(q, rng.standard_normal(module.NQ), float(rng.uniform(0, 2)), p,
@@ -45,4 +46,18 @@ def _moments_together(module: ModuleType, defaults: np.ndarray, p: np.ndarray) -
             continue
         for other in (names[f"{head}.inertia_y"], names[f"{head}.inertia_z"]):
             p[other] = defaults[other] * p[i] / defaults[i]
+    return p
+
+
+def universal_axes_kept(module: ModuleType, defaults: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """p with the orientations and universal joints' axes at their defaults in a model with a
+    universal joint: its axes must stay normal where the orientations place them (a range
+    check), which perturbing either apart would break."""
+    names = module.PARAMETERS
+    if not any(name.endswith(".axis_a_x") for name in names):
+        return p
+    p = p.copy()
+    for i, name in enumerate(names):
+        if ".orientation_" in name or ".axis_a_" in name or ".axis_b_" in name:
+            p[i] = defaults[i]
     return p

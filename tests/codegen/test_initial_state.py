@@ -11,6 +11,7 @@ import numpy as np
 import sympy
 
 import handmade
+from fd_states import universal_axes_kept
 from depsim.codegen import compile_numpy, load_generated
 from depsim.codegen.expr import ConstantScope, to_sympy
 from depsim.runtime import simulate
@@ -19,7 +20,8 @@ from depsim.runtime.interface import initial_state, outputs_at
 
 def parameter_sets(module):
     defaults = np.array(module.PARAMETER_DEFAULTS, dtype=float)
-    return [defaults, defaults * np.linspace(0.93, 1.07, module.NP)]
+    return [defaults, universal_axes_kept(module, defaults,
+                                          defaults * np.linspace(0.93, 1.07, module.NP))]
 
 
 def evaluate(expr, system, p) -> float:

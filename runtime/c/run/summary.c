@@ -272,6 +272,20 @@ static void solver_lines(const dep_result *r, text *out)
     }
 }
 
+/* Whether a tree value (depsim_model.h, tree_joints) is an angle: a hinge's, or one named
+   JOINT.angle..., JOINT.turn_... (a free, ball, cylindrical or universal joint's turn);
+   else a length. */
+static int angle_value(const dep_model *m, const char *name)
+{
+    for (int h = 0; h < m->nh; ++h) {
+        if (strcmp(m->hinge_names[h], name) == 0) {
+            return 1;
+        }
+    }
+    const char *dot = strrchr(name, '.');
+    return dot != NULL && (strncmp(dot + 1, "angle", 5) == 0 || strncmp(dot + 1, "turn_", 5) == 0);
+}
+
 /* "assembled at t = 0: knee = -33.06 deg (-2.468 rad/s), rest = 92.04 deg (0.6014 rad/s)" */
 static void assembly_line(const dep_model *m, const dep_result *r, text *out)
 {
@@ -287,13 +301,10 @@ static void assembly_line(const dep_model *m, const dep_result *r, text *out)
             if (strcmp(d->key, "values") != 0) {
                 continue;
             }
-            int hinge = 0;
-            for (int h = 0; h < m->nh && !hinge; ++h) {
-                hinge = strcmp(m->hinge_names[h], d->member) == 0;
-            }
+            int angle = angle_value(m, d->member);
             put(out, "%s %s = %.6g %s", first ? "" : ",", d->member,
-                hinge ? d->number * 180.0 / 3.14159265358979323846 : d->number,
-                hinge ? "deg" : "m");
+                angle ? d->number * 180.0 / 3.14159265358979323846 : d->number,
+                angle ? "deg" : "m");
             first = 0;
         }
         put(out, "\n");
