@@ -343,7 +343,15 @@ class Hinge:
 @dataclass(frozen=True, slots=True)
 class Slider:
     """A prismatic joint: point b of member b slides along `axis` (fixed in member a) through
-    point a of member a; the relative angle stays at its initial value."""
+    point a of member a; the relative angle stays at its initial value. Optional attributes
+    are None when absent: the hinge's toolkit along the axis, on the displacement s (m),
+
+    drive spring force on s: preload - stiffness * s                    (N)
+    Coulomb friction: -friction * tanh(s_rate / slip_rate)              (N)
+    viscous damping: -damping * s_rate                                  (N)
+    latch: locks when s first reaches `latch` (m); rigid unless latch_stiffness given.
+    stops: one-sided limits stop_min <= s <= stop_max; release: a hold-down until then (s).
+    """
 
     name: str
     a: Attachment
@@ -353,6 +361,18 @@ class Slider:
     initial_rate: Expr  # m/s
     span: Span
     held: int = 0  # the assembly holds: 1 its initial position (given), 2 its rate, 3 both
+    stiffness: Expr | None = None  # N/m
+    preload: Expr | None = None  # N
+    friction: Expr | None = None  # N (kinetic)
+    static_friction: Expr | None = None  # N (stick-slip model when given)
+    slip_rate: Expr | None = None  # m/s, tanh regularisation (given with friction)
+    damping: Expr | None = None  # N*s/m
+    latch: Expr | None = None  # m
+    latch_stiffness: Expr | None = None  # N/m
+    latch_damping: Expr | None = None  # N*s/m
+    stop_min: Expr | None = None  # m
+    stop_max: Expr | None = None  # m
+    release: Expr | None = None  # s
 
 
 @dataclass(frozen=True, slots=True)
