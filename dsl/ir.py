@@ -151,7 +151,9 @@ class JointLoad:
     """A load a connector carries (outputs only). kind "hinge": force_x, force_y, force (the
     force on member b from member a, world frame, N), torque (its lock torque, N*m, nan while
     nothing holds it); "weld": the same, torque the moment the weld holds; "spring": force
-    (along its line, positive pushing apart, N), length (m), rate (m/s)."""
+    (along its line, positive pushing apart, N), length (m), rate (m/s); "slider": force (its
+    lock force along the axis on member b, N, nan while nothing holds it, 0 for a slider
+    nothing can hold)."""
 
     kind: str
     index: int
