@@ -141,7 +141,7 @@ def test_on_a_tilted_rail_a_block_sticks_or_slips_by_static_friction(build, stat
     result = simulate(build(TILTED.format(c=math.cos(tilt), s=math.sin(tilt), fs=static)))
     pull = 2.0 * 9.81 * math.sin(tilt)
     first = result.events[0]
-    assert first.t == 0.0 and first.data["torque"] == pytest.approx(pull, rel=1e-12)
+    assert first.t == 0.0 and first.data["force"] == pytest.approx(pull, rel=1e-12)
     if pull < static:
         assert first.kind == "stick"
         assert np.max(np.abs(result.output("x"))) < 1e-12
@@ -174,6 +174,7 @@ output stop_force = s.force
         assert hit.t == pytest.approx(math.sqrt(2 * stop * m / preload), abs=1e-9)
         speed = math.sqrt(2 * preload * stop / m)
         assert hit.data["rate"] == pytest.approx(speed, rel=1e-9)
+        assert hit.data["position"] == stop and "angle" not in hit.data
         assert hit.data["impulse"] == pytest.approx(-m * speed, rel=1e-9)
         after = result.times > hit.t
         assert np.max(np.abs(result.output("x")[after] - stop)) < 1e-12
@@ -231,3 +232,13 @@ def test_a_boom_section_latches_at_the_time_of_its_ode(build, spatial):
     assert result.deployment.deployed and result.deployment.time == latch.t
     after = result.times > latch.t
     assert np.max(np.abs(result.output("x")[after] - LB)) < 1e-12
+
+
+def test_the_report_names_a_slider_by_its_units(build_c):
+    """The deployment report (the core's text, both targets) gives a slider's latch rate in
+    m/s, its impulse in N*s and its lock load as a force along the axis."""
+    text = BOOM.format(spatial="", inertia="0.02 kg*m^2", axis="(1, 0)")
+    report = simulate(build_c(text)).report()
+    latch = next(line for line in report.splitlines() if "latch tube" in line)
+    assert " m/s, impulse " in latch and " N*s, " in latch and "rad" not in latch
+    assert "tube: force along the axis " in report and "N*m at" not in report
