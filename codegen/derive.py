@@ -18,7 +18,7 @@ from depsim.dsl.attributes import HINGE_PROPERTIES
 from .assembly import Group, assemble
 from .errors import CodegenError
 from .expr import to_sympy
-from .kinematics import Coordinates, Kinematics
+from .kinematics import Coordinates, Kinematics, core_sliders
 from .layout import build_coordinates
 from .loads import derive_loads
 from .spatial import SYSTEM_STATE as SPATIAL_SYSTEM_STATE
@@ -176,13 +176,11 @@ def derive(model: ir.Model) -> SymbolicSystem:
     phi_q = jacobian(phi, q)
     lam, entries, phi_q_lam = _transpose_times(phi_q)
     phi_t = phi.diff(t)
-    thetas = column(kin.hinge_theta(i) for i in range(len(model.hinges)))
+    sliding = core_sliders(model)  # the sliders after the hinges in the hinge tables
+    thetas = column([kin.hinge_theta(i) for i in range(len(model.hinges))]
+                    + [kin.slider_s(i) for i in sliding])
     if model.spatial:
-        parts = [kin.hinge_derivatives(i) for i in range(len(model.hinges))]
-        hinge_jacobian = ImmutableSparseMatrix(len(parts), len(q), {
-            (i, j): value for i, (gradient, _) in enumerate(parts)
-            for j, value in gradient.items()})
-        hinge_gamma = column(gamma for _, gamma in parts)
+        hinge_jacobian, hinge_gamma = _spatial_hinge_derivatives(model, kin, thetas, symbols)
     else:
         hinge_jacobian = jacobian(thetas, q)
         hinge_gamma = acceleration_rhs(thetas, hinge_jacobian, symbols)
@@ -208,7 +206,8 @@ def derive(model: ir.Model) -> SymbolicSystem:
         phi=phi, phi_q=phi_q, phi_q_pattern=_pattern(phi_q), lam=lam,
         phi_q_entries=entries, phi_q_lam=phi_q_lam, phi_t=phi_t,
         gamma=acceleration_rhs(phi, phi_q, symbols), force=column(loads.force),
-        hinge_names=tuple(h.name for h in model.hinges),
+        hinge_names=tuple(h.name for h in model.hinges)
+        + tuple(model.sliders[i].name for i in sliding),
         slider_names=tuple(s.name for s in model.sliders),
         hinge_angles=thetas, hinge_rates=times(hinge_jacobian, symbols.qd),
         hinge_jacobian=hinge_jacobian, hinge_jacobian_pattern=_pattern(hinge_jacobian),
@@ -263,9 +262,10 @@ def _loop_targets(model: ir.Model, kin: Kinematics, held: int) -> ImmutableMatri
     """Per hinge: the given initial angle (held = 1) or rate (2) of a hinge that closes a loop
     and was given it; nan for every other hinge."""
     loops = {index for kind, index in model.loop_joints if kind is ir.JointKind.HINGE}
-    return column(kin.const(h.initial_angle if held == 1 else h.initial_rate)
-                  if i in loops and h.held & held else sympy.nan
-                  for i, h in enumerate(model.hinges))
+    return column([kin.const(h.initial_angle if held == 1 else h.initial_rate)
+                   if i in loops and h.held & held else sympy.nan
+                   for i, h in enumerate(model.hinges)]
+                  + [sympy.nan] * len(core_sliders(model)))
 
 
 _NOT_FINITE = (sympy.zoo, sympy.oo, -sympy.oo, sympy.nan)
@@ -324,10 +324,30 @@ def _constraints(model: ir.Model, kin: Kinematics, at_start) -> list[_Row]:
 
 
 def _hinge_properties(model: ir.Model, kin: Kinematics) -> ImmutableMatrix:
-    """HINGE_PROPERTIES of each hinge (SI), sympy.nan for an attribute the model leaves out."""
-    return ImmutableMatrix(len(model.hinges), len(HINGE_PROPERTIES), [
-        sympy.nan if getattr(hinge, name) is None else kin.const(getattr(hinge, name))
-        for hinge in model.hinges for name in HINGE_PROPERTIES])
+    """HINGE_PROPERTIES of each hinge, then of each slider of core_sliders (SI), sympy.nan
+    for an attribute the model leaves out."""
+    joints = model.hinges + tuple(model.sliders[i] for i in core_sliders(model))
+    return ImmutableMatrix(len(joints), len(HINGE_PROPERTIES), [
+        sympy.nan if getattr(joint, name) is None else kin.const(getattr(joint, name))
+        for joint in joints for name in HINGE_PROPERTIES])
+
+
+def _spatial_hinge_derivatives(model: ir.Model, kin, thetas: ImmutableMatrix,
+                               symbols: Coordinates
+                               ) -> tuple[ImmutableSparseMatrix, ImmutableMatrix]:
+    """d theta/dq and -(d theta/dq qd)_q qd of a spatial model's hinge entries: a hinge's
+    from its turn written out (SpatialKinematics.hinge_derivatives), a slider's displacement,
+    bilinear in q, differentiated as it is."""
+    nh = len(model.hinges)
+    parts = [kin.hinge_derivatives(i) for i in range(nh)]
+    entries = {(i, j): value for i, (gradient, _) in enumerate(parts)
+               for j, value in gradient.items()}
+    displacements = column(thetas[nh:])
+    slider_jacobian = jacobian(displacements, symbols.q)
+    entries.update({(nh + i, j): value for (i, j), value in slider_jacobian.todok().items()})
+    gammas = [gamma for _, gamma in parts] \
+        + list(acceleration_rhs(displacements, slider_jacobian, symbols))
+    return ImmutableSparseMatrix(thetas.rows, len(symbols.q), entries), column(gammas)
 
 
 def _mass_matrix(model: ir.Model, kin: Kinematics) -> ImmutableSparseMatrix:

@@ -56,6 +56,15 @@ HINGE_OBSERVABLES = (
     ("torque", "FMU_TORQUE", "N*m",
      "lock torque of hinge {h} on member b (latched or at a stop; 0 when free)"),
 )
+# A slider in the hinge tables (docs/language.md, slider): its displacement, rate and lock
+# force along the axis, in the hinge observables' places.
+SLIDER_OBSERVABLES = (
+    ("position", "FMU_ANGLE", "m", "displacement of slider {h} along its axis"),
+    ("rate", "FMU_RATE", "m/s", "displacement rate of slider {h}"),
+    ("force", "FMU_TORQUE", "N",
+     "lock force of slider {h} on member b along its axis (latched or at a stop; 0 when "
+     "free)"),
+)
 
 
 def _xml_text(text: str) -> str:
@@ -243,17 +252,20 @@ def fmu_view(model: ir.Model, m: ModuleView, source_files: tuple[str, ...] = ())
     for j, (name, unit) in enumerate(zip(tables["OUTPUTS"], tables["OUTPUT_UNITS"])):
         v.add(name, "Real", "output", "continuous", "FMU_OUTPUT", j, unit=unit,
               initial="calculated", description=f"output {name}")
-    latches = {h.name for h in model.hinges if h.latch is not None}
+    latches = {joint.name for joint in model.hinges + model.sliders if joint.latch is not None}
+    sliders = set(tables["SLIDERS"])
     for h, hinge in enumerate(tables["HINGES"]):
-        for suffix, kind, unit, what in HINGE_OBSERVABLES:
+        what_joint = "slider" if hinge in sliders else "hinge"
+        for suffix, kind, unit, what in \
+                SLIDER_OBSERVABLES if hinge in sliders else HINGE_OBSERVABLES:
             if suffix == "force_z" and not model.spatial:
                 continue
             v.add(f"{hinge}.{suffix}", "Real", "output", "continuous", kind, h, unit=unit,
                   initial="calculated", description=what.format(h=hinge))
         if hinge in latches:
             v.add(f"{hinge}.latched", "Boolean", "output", "discrete", "FMU_LATCHED", h,
-                  initial="calculated", description=f"true once the latch of hinge {hinge} "
-                                                    "engaged")
+                  initial="calculated", description=f"true once the latch of {what_joint} "
+                                                    f"{hinge} engaged")
     _check_unique(model, v.items)
     variables = tuple(_with_unit(var) for var in v.items)
     return FmuView(

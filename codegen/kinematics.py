@@ -15,6 +15,7 @@ from typing import Any
 import sympy
 
 from depsim.dsl import ir
+from depsim.dsl.attributes import SPECS
 
 from .errors import CodegenError
 from .expr import ConstantScope, to_sympy
@@ -32,6 +33,17 @@ class Coordinates:
     p: tuple[sympy.Symbol, ...]
     t: sympy.Symbol
     beam_q: tuple[tuple[sympy.Symbol, ...], ...]  # each beam's slice of q
+
+
+def core_sliders(model: ir.Model) -> tuple[int, ...]:
+    """The sliders the integrator treats as hinges along their axes: those with an attribute
+    it applies itself (a column of hinge_properties other than slip_rate: friction, a latch,
+    a stop, a hold-down). Each is one more entry of the hinge tables, after the hinges, its
+    coordinate its displacement s (m) (docs/language.md, slider)."""
+    columns = [spec.name for spec in SPECS["slider"]
+               if spec.column is not None and spec.name != "slip_rate"]
+    return tuple(index for index, slider in enumerate(model.sliders)
+                 if any(getattr(slider, name) is not None for name in columns))
 
 
 def rotate(angle: sympy.Expr, vector: Vector) -> Vector:

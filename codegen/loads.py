@@ -1,12 +1,13 @@
 """Energies, dissipation and the generalized applied force.
 
-Potentials (hinge springs, cable loops, gravity, beam elasticity) give f = -dV/dq exactly, so
-a free conservative model conserves energy. Hinge damping is a torque tau on the hinge angle
-theta, mapped to the generalized force Q = (d theta/dq)^T tau; so is an input torque, and an
-input force F at a point r(q) gives Q = (dr/dq)^T F. A point-to-point spring-damper's force F
-along its line gives Q = F dL/dq (`spring_law`, its one definition). Hinge Coulomb friction is
-not here: its torque depends on the hinge's mode (sliding, stuck, locked by a latch or stop),
-so the integrator applies it from hinge_properties (docs/deployment.md)."""
+Potentials (hinge and slider springs, cable loops, gravity, beam elasticity) give f = -dV/dq
+exactly, so a free conservative model conserves energy. Hinge damping is a torque tau on the
+hinge angle theta, mapped to the generalized force Q = (d theta/dq)^T tau, and a slider's a
+force F on its displacement s, Q = (ds/dq)^T F; so is an input torque, and an input force F at
+a point r(q) gives Q = (dr/dq)^T F. A point-to-point spring-damper's force F along its line
+gives Q = F dL/dq (`spring_law`, its one definition). Coulomb friction (a hinge's or a
+slider's) is not here: its torque depends on the joint's mode (sliding, stuck, locked by a
+latch or stop), so the integrator applies it from hinge_properties (docs/deployment.md)."""
 
 from __future__ import annotations
 
@@ -84,6 +85,13 @@ def implicit_stiffness(model: ir.Model, kin: Kinematics, jacobian: sympy.SparseM
             outer(K, kin.const(hinge.stiffness), rows[index])
         if hinge.damping is not None:
             outer(D, kin.const(hinge.damping), rows[index])
+    for index, slider in enumerate(model.sliders):  # k g g^T, c g g^T, g = ds/dq
+        if slider.stiffness is not None or slider.damping is not None:
+            gradient_s = slider_gradient(kin, index)
+            if slider.stiffness is not None:
+                outer(K, kin.const(slider.stiffness), gradient_s)
+            if slider.damping is not None:
+                outer(D, kin.const(slider.damping), gradient_s)
     for cable in model.cables:
         gradient: dict[int, list[sympy.Expr]] = {}
         for term in cable.terms:
@@ -169,8 +177,8 @@ def derive_loads(model: ir.Model, kin: Kinematics, mass_matrix: sympy.SparseMatr
             force[j] += law.force * g
     potentials += [(f"spring.{s.name}", law.potential) for s, law in zip(model.springs, springs)]
     rows = sparse_rows(jacobian)
-    dissipators = _hinge_dissipators(model, kin, rows) + _beam_dissipators(model, kin) \
-        + _input_loads(model, kin, rows)
+    dissipators = _hinge_dissipators(model, kin, rows) + _slider_dissipators(model, kin) \
+        + _beam_dissipators(model, kin) + _input_loads(model, kin, rows)
     for _, generalized, _power in dissipators:
         for j, g in generalized.items():
             force[j] += g
@@ -218,6 +226,16 @@ def _potentials(model: ir.Model, kin: Kinematics,
         if hinge.stiffness is not None:
             energy += kin.const(hinge.stiffness) * theta**2 / 2
         terms.append((f"spring.{hinge.name}", energy))
+    for index, slider in enumerate(model.sliders):  # V = stiffness s^2 / 2 - preload s
+        if slider.stiffness is None and slider.preload is None:
+            continue
+        s = kin.slider_s(index)
+        energy = sympy.Integer(0)
+        if slider.preload is not None:
+            energy -= kin.const(slider.preload) * s
+        if slider.stiffness is not None:
+            energy += kin.const(slider.stiffness) * s**2 / 2
+        terms.append((f"spring.{slider.name}", energy))
     for cable in model.cables:
         stretch = sympy.Add(*(kin.const(term.coefficient) * thetas[term.hinge]
                               for term in cable.terms))
@@ -261,6 +279,29 @@ def _hinge_dissipators(model: ir.Model, kin: Kinematics,
             damping = kin.const(hinge.damping)
             found.append((f"damping.{hinge.name}", {j: -damping * rate * g for j, g in row.items()},
                           damping * rate**2))
+    return found
+
+
+def slider_gradient(kin: Kinematics, index: int) -> dict[int, sympy.Expr]:
+    """d s / dq of slider `index`'s displacement (coordinate index -> its non-zero entries)."""
+    position = {symbol: j for j, symbol in enumerate(kin.symbols.q)}
+    s = kin.slider_s(index)
+    gradient = {position[symbol]: s.diff(symbol) for symbol in
+                sorted(s.free_symbols & position.keys(), key=position.get)}
+    return {j: g for j, g in gradient.items() if g != 0}
+
+
+def _slider_dissipators(model: ir.Model, kin: Kinematics) -> list[Dissipator]:
+    """Viscous damping forces along slider axes: -damping * s_rate on s."""
+    qd = kin.symbols.qd
+    found = []
+    for index, slider in enumerate(model.sliders):
+        if slider.damping is not None:
+            row = slider_gradient(kin, index)
+            rate = sympy.Add(*(g * qd[j] for j, g in row.items()))
+            damping = kin.const(slider.damping)
+            found.append((f"damping.{slider.name}",
+                          {j: -damping * rate * g for j, g in row.items()}, damping * rate**2))
     return found
 
 

@@ -23,7 +23,7 @@ import sympy
 
 from depsim.dsl import ir
 
-from .kinematics import Kinematics
+from .kinematics import Kinematics, core_sliders
 
 # The columns of the generated system_state(q, qd, p) (depsim.runtime.interface).
 SYSTEM_STATE = ("mass", "com_x", "com_y", "momentum_x", "momentum_y", "angular_momentum")
@@ -33,8 +33,11 @@ RUN_TOTALS = ("work.friction", "work.latch", "work.impacts", "energy.latch")
 
 
 def run_value_names(model: ir.Model, dissipators: tuple[str, ...]) -> tuple[str, ...]:
-    """The names of the run values w an output may use, in their order (RUN_VALUES)."""
+    """The names of the run values w an output may use, in their order (RUN_VALUES): each
+    hinge's lock torque, each slider of core_sliders' lock force along its axis, the
+    dissipators' work, RUN_TOTALS."""
     return (tuple(f"{h.name}.torque" for h in model.hinges)
+            + tuple(f"{model.sliders[i].name}.force" for i in core_sliders(model))
             + tuple(f"work.{name}" for name in dissipators) + RUN_TOTALS)
 
 
@@ -114,6 +117,11 @@ class OutputScope:
         if kind == "spring":
             law = self.springs[index]
             return {"force": law.force, "length": law.length, "rate": law.rate}[quantity]
+        if kind == "slider":  # its lock force (run value), 0 when nothing can lock it
+            sliding = core_sliders(self.kin.model)
+            if index not in sliding:
+                return sympy.Integer(0)
+            return self.w[len(self.kin.model.hinges) + sliding.index(index)]
         model = self.kin.model
         joint = {"hinge": model.hinges, "weld": model.welds, "ball": model.balls,
                  "cylindrical": model.cylindricals, "universal": model.universals}[kind][index]
@@ -164,7 +172,8 @@ class OutputScope:
         q, qd, M = self.kin.symbols.q, self.kin.symbols.qd, self.mass
         axes = "xyz"[:len(translations)]
         mass = _weighted(M, translations[0], translations[0])
-        nh, nd = len(self.kin.model.hinges), len(self.dissipators)
+        nd = len(self.dissipators)
+        nh = len(self.w) - nd - len(RUN_TOTALS)  # the hinge entries' lock loads come first
         totals = dict(zip(RUN_TOTALS, self.w[nh + nd:]))
         if quantity == "mass":
             return mass

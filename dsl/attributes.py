@@ -97,7 +97,35 @@ SPECS: dict[str, tuple[AttrSpec, ...]] = {
         AttrSpec("release", TIME, False, "nonnegative", column=8,
                  meaning="held locked from t = 0 until this time, then released (a "
                          "hold-down)")),
-    "slider": (AttrSpec("axis", None, True),),
+    # A slider has the hinge's toolkit along its axis, on its displacement s (m) with linear
+    # units; the integrator applies those with a column as it applies a hinge's (the same
+    # columns: a slider with any of them is one more entry of the generated model's hinge
+    # tables, docs/language.md, slider).
+    "slider": (
+        AttrSpec("axis", None, True, meaning="the direction of travel in member A's frame"),
+        AttrSpec("stiffness", _LINEAR_STIFFNESS, False, "nonnegative",
+                 meaning="spring: force along the axis is `preload - stiffness * s`"),
+        AttrSpec("preload", _FORCE, meaning="spring force at s = 0"),
+        AttrSpec("friction", _FORCE, False, "nonnegative", column=5,
+                 meaning="Coulomb friction `-friction * tanh(s_rate / slip_rate)`"),
+        AttrSpec("static_friction", _FORCE, False, "nonnegative", column=6,
+                 meaning="stick-slip model when given (at least `friction`)"),
+        AttrSpec("slip_rate", Dim(length=1, time=-1), False, "positive", default=1e-3,
+                 column=7, meaning="regularisation of friction (its entry only with friction)"),
+        AttrSpec("damping", _LINEAR_DAMPING, False, "nonnegative",
+                 meaning="viscous `-damping * s_rate`"),
+        AttrSpec("latch", LENGTH, column=0,
+                 meaning="the slider locks when s first reaches this position"),
+        AttrSpec("latch_stiffness", _LINEAR_STIFFNESS, False, "positive", column=1,
+                 meaning="a flexible latch (rigid without it); needs `latch` (E028)"),
+        AttrSpec("latch_damping", _LINEAR_DAMPING, False, "nonnegative", column=2,
+                 meaning="damping of a flexible latch; needs `latch` (E028)"),
+        AttrSpec("stop_min", LENGTH, column=3, meaning="one-sided lower limit of s"),
+        AttrSpec("stop_max", LENGTH, column=4,
+                 meaning="one-sided upper limit of s, above `stop_min` (E028)"),
+        AttrSpec("release", TIME, False, "nonnegative", column=8,
+                 meaning="held locked from t = 0 until this time, then released (a "
+                         "hold-down)")),
     "weld": (AttrSpec("angle", ANGLE, meaning="the relative angle it holds, angle(B) - "
                                               "angle(A); default 0"),),
     "free": (),
@@ -145,16 +173,25 @@ assert sorted(s.column for s in SPECS["hinge"] if s.column is not None) == \
     list(range(len(HINGE_PROPERTIES))), "hinge property columns are numbered 0, 1, 2, ..."
 
 
-def hinge_attribute_table() -> str:
-    """The hinge attributes as docs/language.md shows them (a Markdown table), from SPECS."""
+# A slider's attributes with a column are the hinge's of that column, in linear units.
+assert all(spec.name == HINGE_PROPERTIES[spec.column] for spec in SPECS["slider"]
+           if spec.column is not None), "a slider's property columns are the hinge's"
+# The joints whose attributes the integrator may apply itself (an entry of the hinge tables).
+TOOLKIT_JOINTS = ("hinge", "slider")
+
+
+def hinge_attribute_table(kind: str = "hinge") -> str:
+    """The attributes of a hinge (or of a slider: kind "slider") as docs/language.md shows
+    them (a Markdown table), from SPECS."""
+    assert kind in TOOLKIT_JOINTS, kind
     lines = ["| attribute | unit | meaning |", "|---|---|---|"]
-    for spec in SPECS["hinge"]:
+    for spec in SPECS[kind]:
         notes = [spec.meaning]
         if spec.limit:
             notes.append({"positive": "> 0", "nonnegative": ">= 0"}[spec.limit])
         if spec.default is not None:
             notes.append(f"default {spec.default:g} {spec.unit}")
-        lines.append(f"| `{spec.name}` | {spec.unit} | {'; '.join(notes)} |")
+        lines.append(f"| `{spec.name}` | {spec.unit} | {'; '.join(n for n in notes if n)} |")
     return "\n".join(lines) + "\n"
 
 

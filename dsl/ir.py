@@ -151,10 +151,11 @@ class JointLoad:
     """A load or value a connector carries (outputs only). kind "hinge": force_x, force_y,
     force (the force on member b from member a, world frame, N), torque (its lock torque,
     N*m, nan while nothing holds it); "weld": the same, torque the moment the weld holds;
-    "spring": force (along its line, positive pushing apart, N), length (m), rate (m/s); in
-    a spatial model also force_z and moment_x, ... (dsl/state_refs.py, SPATIAL_LOADS), a
-    cylindrical joint's angle, rate, position, velocity and a universal joint's angle_a,
-    rate_a, angle_b, rate_b."""
+    "spring": force (along its line, positive pushing apart, N), length (m), rate (m/s);
+    "slider": force (its lock force along the axis on member b, N, nan while nothing holds
+    it, 0 for a slider nothing can hold); in a spatial model also force_z and moment_x, ...
+    (dsl/state_refs.py, SPATIAL_LOADS), a cylindrical joint's angle, rate, position,
+    velocity and a universal joint's angle_a, rate_a, angle_b, rate_b."""
 
     kind: str
     index: int
@@ -350,7 +351,15 @@ class Hinge:
 @dataclass(frozen=True, slots=True)
 class Slider:
     """A prismatic joint: point b of member b slides along `axis` (fixed in member a) through
-    point a of member a; the relative angle stays at its initial value."""
+    point a of member a; the relative angle stays at its initial value. Optional attributes
+    are None when absent: the hinge's toolkit along the axis, on the displacement s (m),
+
+    drive spring force on s: preload - stiffness * s                    (N)
+    Coulomb friction: -friction * tanh(s_rate / slip_rate)              (N)
+    viscous damping: -damping * s_rate                                  (N)
+    latch: locks when s first reaches `latch` (m); rigid unless latch_stiffness given.
+    stops: one-sided limits stop_min <= s <= stop_max; release: a hold-down until then (s).
+    """
 
     name: str
     a: Attachment
@@ -360,6 +369,18 @@ class Slider:
     initial_rate: Expr  # m/s
     span: Span
     held: int = 0  # the assembly holds: 1 its initial position (given), 2 its rate, 3 both
+    stiffness: Expr | None = None  # N/m
+    preload: Expr | None = None  # N
+    friction: Expr | None = None  # N (kinetic)
+    static_friction: Expr | None = None  # N (stick-slip model when given)
+    slip_rate: Expr | None = None  # m/s, tanh regularisation (given with friction)
+    damping: Expr | None = None  # N*s/m
+    latch: Expr | None = None  # m
+    latch_stiffness: Expr | None = None  # N/m
+    latch_damping: Expr | None = None  # N*s/m
+    stop_min: Expr | None = None  # m
+    stop_max: Expr | None = None  # m
+    release: Expr | None = None  # s
 
 
 @dataclass(frozen=True, slots=True)

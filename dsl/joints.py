@@ -156,12 +156,16 @@ def _torque_free(statement: JointStmt, ends, found, reader: AttributeReader) -> 
     return not any(key in found for key in TORQUE_ATTRIBUTES)
 
 
-def _check_hinge_limits(name: str, found, fields, reader: AttributeReader) -> None:
+def _check_hinge_limits(name: str, found, fields, reader: AttributeReader,
+                        kind: str = "hinge") -> None:
+    """E028: a latch's stiffness or damping without the latch, stops out of order, static
+    friction below the kinetic (a hinge's or, kind "slider", a slider's)."""
+    what, example = ("angle", "90 deg") if kind == "hinge" else ("position", "0.5 m")
     for needs_latch in ("latch_stiffness", "latch_damping"):
         if needs_latch in found and "latch" not in found:
-            reader.report.error("E028", f"{needs_latch} is given without a latch angle",
-                                found[needs_latch].span, hint="add: latch = 90 deg")
-    specs = {spec.name: spec for spec in SPECS["hinge"]}
+            reader.report.error("E028", f"{needs_latch} is given without a latch {what}",
+                                found[needs_latch].span, hint=f"add: latch = {example}")
+    specs = {spec.name: spec for spec in SPECS[kind]}
     for key, kind, bound in (("stop_min", "below", "stop_max"),
                              ("static_friction", "at_least", "friction")):
         if fields.get(key) is None or fields.get(bound) is None:
@@ -178,8 +182,46 @@ def resolve_slider(statement: JointStmt, symbols: SymbolTable, reader: Attribute
     found = read_block(statement.block, "slider", f"slider '{name}'", statement.name.span,
                        reader.report)
     ends = _joint_ends(statement, symbols, reader)
+    axis = _slider_axis(found.get("axis"), name, reader)
+    toolkit = _slider_toolkit(statement, found, reader)
+    if ends is not None and ends[0][0].kind == "particle":
+        reader.report.error("E048", f"slider '{name}': {ends[0][0].describe()} has no angle, "
+                            "so it cannot carry the slider's axis", statement.a.span,
+                            hint="join the particle second: `joins RAIL.POINT to "
+                                 f"{ends[0][0].name}.cm`")
+        return None
+    if ends is None or axis is None or toolkit is None:
+        return None
+    return dict(name=name, a=ends[0][1], b=ends[1][1], axis=axis, span=statement.span,
+                **toolkit)
+
+
+def _slider_toolkit(statement: JointStmt, found, reader: AttributeReader) -> dict | None:
+    """A slider's springs, friction, latch, stops and hold-down along its axis (SPECS), by
+    attribute name, absent ones None; its slip_rate has an entry (its default) only when it
+    has friction. None when one has an error (reported)."""
+    name = statement.name.text
+    specs = {spec.name: spec for spec in SPECS["slider"] if spec.name != "axis"}
+    fields: dict = dict.fromkeys(specs)
+    for key, item in found.items():  # in written order, so entries follow the file
+        if key in specs:
+            fields[key] = reader.scalar(item, specs[key], f"{name}.{key}")
+    spec = specs["slip_rate"]
+    if "slip_rate" not in found and ({"friction", "static_friction"} & found.keys()):
+        fields["slip_rate"] = reader.enter(f"{name}.slip_rate", Num(spec.default), spec.dim,
+                                           statement.name.span)
+        if fields["slip_rate"] is not None:
+            reader.limits.append(Limit(f"{name}.slip_rate", fields["slip_rate"], spec.limit,
+                                       si_text(spec.dim), statement.name.span))
+    _check_hinge_limits(name, found, fields, reader, "slider")
+    if any(fields[key] is None for key in found if key in specs):
+        return None
+    return fields
+
+
+def _slider_axis(item, name: str, reader: AttributeReader) -> tuple[Expr, ...] | None:
+    """A slider's axis: a direction vector (any length but zero); None after an error."""
     axis = None
-    item = found.get("axis")
     if item is not None and not isinstance(item.value, VectorLit):
         reader.report.error("E023", "axis takes a direction vector, e.g. axis = (1, 0)",
                             item.value.span)
@@ -193,15 +235,7 @@ def resolve_slider(statement: JointStmt, symbols: SymbolTable, reader: Attribute
             if not reader.check_limit(Limit(f"{name}.axis", size, "nonzero", "",
                                             item.value.span)):
                 axis = None
-    if ends is not None and ends[0][0].kind == "particle":
-        reader.report.error("E048", f"slider '{name}': {ends[0][0].describe()} has no angle, "
-                            "so it cannot carry the slider's axis", statement.a.span,
-                            hint="join the particle second: `joins RAIL.POINT to "
-                                 f"{ends[0][0].name}.cm`")
-        return None
-    if ends is None or axis is None:
-        return None
-    return dict(name=name, a=ends[0][1], b=ends[1][1], axis=axis, span=statement.span)
+    return axis
 
 
 def resolve_weld(statement: JointStmt, symbols: SymbolTable, reader: AttributeReader

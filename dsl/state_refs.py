@@ -25,7 +25,8 @@ BODY_COORDS = {"x": LENGTH, "y": LENGTH, "phi": ANGLE, "vx": VELOCITY, "vy": VEL
 PARTICLE_COORDS = {"x": LENGTH, "y": LENGTH, "vx": VELOCITY, "vy": VELOCITY}
 # The loads a connector carries, by its kind (ir.JointLoad).
 REACTIONS = {"force_x": FORCE, "force_y": FORCE, "force": FORCE, "torque": TORQUE}
-LOADS = {"hinge": REACTIONS, "weld": REACTIONS,
+# A slider's `force`: what its latch, stop, stick or hold-down exerts on B along the axis.
+LOADS = {"hinge": REACTIONS, "weld": REACTIONS, "slider": {"force": FORCE},
          "spring": {"force": FORCE, "length": LENGTH, "rate": VELOCITY}}
 # The system's quantities (ir.SystemQuantity); angular momentum in N*m*s (kg*m^2/s).
 ANGULAR_MOMENTUM = Dim(mass=1, length=2, time=-1)
@@ -45,6 +46,7 @@ SPATIAL_REACTIONS = {"force_x": FORCE, "force_y": FORCE, "force_z": FORCE, "forc
                      "moment": TORQUE}
 SPATIAL_LOADS = {"hinge": {**SPATIAL_REACTIONS, "torque": TORQUE}, "weld": SPATIAL_REACTIONS,
                  "ball": SPATIAL_REACTIONS, "spring": LOADS["spring"],
+                 "slider": LOADS["slider"],
                  "cylindrical": {"angle": ANGLE, "rate": Dim(angle=1, time=-1),
                                  "position": LENGTH, "velocity": VELOCITY,
                                  **SPATIAL_REACTIONS},

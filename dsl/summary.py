@@ -21,6 +21,8 @@ _SPRING_DIMS = {spec.name: spec.dim for spec in SPECS["spring"] if spec.dim is n
 _FREE_DIMS = (Dim(length=1), Dim(length=1, time=-1), Dim(length=1), Dim(length=1, time=-1),
               ANGLE, Dim(time=-1, angle=1))
 _HINGE_ATTRIBUTES = tuple(_HINGE_DIMS)
+# A slider's springs, friction, latch, stops and hold-down (SPECS["slider"]), in that order.
+_SLIDER_DIMS = {spec.name: spec.dim for spec in SPECS["slider"] if spec.dim is not None}
 _RATE = Dim(time=-1, angle=1)
 _SPATIAL_FREE_NAMES = ("x", "vx", "y", "vy", "z", "vz", "turn_x", "wx", "turn_y", "wy",
                        "turn_z", "wz")
@@ -213,7 +215,9 @@ def _sliders(model: Model, values: list[float]) -> list[str]:
             f"  {slider.name:<12} {a}.{slider.a.point} -> {b}.{slider.b.point}:",
             [f"axis ({axis})",
              f"initial_position {quantity(slider.initial_position, Dim(length=1), values)}",
-             f"initial_rate {quantity(slider.initial_rate, Dim(length=1, time=-1), values)}"])
+             f"initial_rate {quantity(slider.initial_rate, Dim(length=1, time=-1), values)}"]
+            + [f"{name} {quantity(value, dim, values)}" for name, dim in _SLIDER_DIMS.items()
+               if (value := getattr(slider, name)) is not None])
     return lines
 
 

@@ -135,6 +135,6 @@ class ConstraintSet:
         if row >= self.nc_module:
             kind = "lock"
         else:
-            kind = ("hinge" if joint in self.module.HINGES else
-                    "slider" if joint in self.module.SLIDERS else "joint")
+            kind = ("slider" if joint in self.module.SLIDERS else  # (some also in HINGES)
+                    "hinge" if joint in self.module.HINGES else "joint")
         return f"{kind} {joint}", self.names[row]

@@ -14,7 +14,7 @@ Arrays are float64 in SI units; q, qd have NQ entries, p NP; t is the time (s); 
 values of the assembly tree's joints (NV: angles, rad, and slider displacements, m), vd their
 rates; lam holds NC multipliers (the constraint rows' forces); w holds the NW run values an
 output may use, which the integrator keeps (RUN_VALUES: each hinge's lock torque, nan while
-free; the work each of the model's dissipators removed; the work of friction, of compliant
+free, then each slider entry's lock force, docs/language.md, slider; the work each of the model's dissipators removed; the work of friction, of compliant
 latches and of impacts; the compliant latches' potential energy). Matrices are row-major. A
 function writes every entry of its results (zeros included).
 """

@@ -80,3 +80,21 @@ def test_a_renamed_property_does_not_build(tmp_path, monkeypatch):
                             str(core / "system" / "hinges.c")], capture_output=True, text=True)
     assert build.returncode != 0
     assert "DEP_HINGE_LATCH" in build.stderr
+
+
+def test_the_ir_carries_every_slider_attribute():
+    """ir.Slider has a field per attribute; its property columns are the hinge's."""
+    fields = {field.name for field in dataclasses.fields(ir.Slider)}
+    for spec in attributes.SPECS["slider"]:
+        assert spec.name in fields, spec.name
+        if spec.column is not None:
+            assert attributes.HINGE_PROPERTIES[spec.column] == spec.name
+
+
+def test_the_language_reference_shows_the_slider_table():
+    text = (DOCS / "language.md").read_text(encoding="utf-8")
+    marker = "<!-- the slider attributes: made from depsim.dsl.attributes (SPECS) -->\n"
+    assert marker in text
+    shown = text.split(marker, 1)[1].split("\n\n", 1)[0] + "\n"
+    assert shown == attributes.hinge_attribute_table("slider"), \
+        "docs/language.md: paste depsim.dsl.attributes.hinge_attribute_table('slider')"

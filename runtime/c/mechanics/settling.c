@@ -87,8 +87,13 @@ dep_event_record *dep_settle_record(settle_context *x, const dep_hinge_mechanics
     return r;
 }
 
+/* A record's number `key`; a slider's record says "position" (m) and "force" (N, along its
+   axis) where a hinge's says "angle" and "torque" (its rate is in m/s, its impulse N*s). */
 void dep_settle_put_number(settle_context *x, dep_event_record *r, const char *key, double value)
 {
+    if (r->hinge >= 0 && dep_hinge_slider(x->m->model, r->hinge) >= 0) {
+        key = strcmp(key, "angle") == 0 ? "position" : strcmp(key, "torque") == 0 ? "force" : key;
+    }
     dep_datum_number(r->data, &r->n_data, x->data_capacity, key, value);
 }
 

@@ -200,12 +200,18 @@ static void deployment_lines(const dep_model *m, const dep_result *r, text *out)
     }
     for (int k = 0; k < d->n_latches; ++k) {
         const dep_latch_summary *s = &d->latches[k];
-        put(out, "    latch %s: t = %.9g s, rate %.4g rad/s (%.4g deg/s), ",
-            m->hinge_names[s->hinge], s->t, s->rate, s->rate * DEGREES);
+        int slider = dep_hinge_slider(m, s->hinge) >= 0; /* m/s and N*s along its axis */
+        put(out, "    latch %s: t = %.9g s, ", m->hinge_names[s->hinge], s->t);
+        if (slider) {
+            put(out, "rate %.4g m/s, ", s->rate);
+        } else {
+            put(out, "rate %.4g rad/s (%.4g deg/s), ", s->rate, s->rate * DEGREES);
+        }
         if (isnan(s->impulse)) {
             put(out, "compliant\n");
         } else {
-            put(out, "impulse %.4g N*m*s, %.4g J lost\n", s->impulse, s->energy_loss);
+            put(out, "impulse %.4g %s, %.4g J lost\n", s->impulse, slider ? "N*s" : "N*m*s",
+                s->energy_loss);
         }
     }
 }
@@ -219,10 +225,16 @@ static void load_lines(const dep_model *m, const dep_result *r, text *out)
             continue;
         }
         if (!header++) {
-            put(out, "  peak hinge loads (force on member b from a; lock torque):\n");
+            put(out, "  peak hinge loads (force on member b from a; lock torque; a slider's "
+                "lock force along its axis):\n");
         }
-        put(out, "    %s: %.4g N at t = %.6g s", m->hinge_names[k], p->force, p->t_force);
-        if (p->torque > 0) {
+        if (dep_hinge_slider(m, k) >= 0) { /* a slider: no pin force, its lock force */
+            put(out, "    %s: force along the axis %.4g N at t = %.6g s", m->hinge_names[k],
+                p->torque, p->t_torque);
+        } else {
+            put(out, "    %s: %.4g N at t = %.6g s", m->hinge_names[k], p->force, p->t_force);
+        }
+        if (p->torque > 0 && dep_hinge_slider(m, k) < 0) {
             put(out, ", torque %.4g N*m at t = %.6g s", p->torque, p->t_torque);
         }
         if (!p->unique) {
@@ -277,9 +289,9 @@ static void solver_lines(const dep_result *r, text *out)
    else a length. */
 static int angle_value(const dep_model *m, const char *name)
 {
-    for (int h = 0; h < m->nh; ++h) {
+    for (int h = 0; h < m->nh; ++h) { /* (a slider's entry is in m) */
         if (strcmp(m->hinge_names[h], name) == 0) {
-            return 1;
+            return dep_hinge_slider(m, h) < 0;
         }
     }
     const char *dot = strrchr(name, '.');

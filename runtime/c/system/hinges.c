@@ -140,3 +140,16 @@ const char *dep_joint_kind(const dep_model *model, int row)
     return model->constraint_hinges[row] >= 0 ? "hinge"
            : model->constraint_sliders[row] >= 0 ? "slider" : "joint";
 }
+
+/* A slider with friction, a latch, a stop or a hold-down is an entry of the hinge tables,
+   after the hinges and under its own name, which is in slider_names too (names are unique in
+   a model): its angle is its displacement (m), its torque a force along its axis (N). */
+int dep_hinge_slider(const dep_model *model, int k)
+{
+    for (int j = 0; j < model->ns; ++j) {
+        if (strcmp(model->slider_names[j], model->hinge_names[k]) == 0) {
+            return j;
+        }
+    }
+    return -1;
+}

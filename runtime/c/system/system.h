@@ -56,6 +56,8 @@ int dep_hinge_locked(const dep_hinge_mechanics *h);   /* by a latch, a stop or a
 int dep_hinge_sliding(const dep_hinge_mechanics *h);  /* stick-slip, slipping */
 /* "hinge", "slider" or "joint": the kind of the joint whose model row `row` is (messages). */
 const char *dep_joint_kind(const dep_model *model, int row);
+/* The slider (index into slider_names) that hinge entry k is, -1 for a hinge. */
+int dep_hinge_slider(const dep_model *model, int k);
 /* A hinge's reaction force rows: x, y and, in a spatial model, z. */
 #define DEP_FORCE_ROWS 3
 /* Each hinge's rows x, y, z (DEP_FORCE_ROWS nh) among the model's rows: its reaction force;
