@@ -5,17 +5,17 @@ joint-coordinate reference of tests/references/bricard.py (DOP853 at 1e-12; inde
 depsim's derivation), whose own closure and energy are checked here too.
 
 The benchmark reports the trajectory of P3 (the end of rod 2) over 10 s. Released at rest, the
-mechanism swings j1 from 0 to 180 degrees and back in about 5 s. depsim's run stops where j1
-passes 90 degrees (t = 1.25, 3.75 or 6.25 s) at most tols (of 1e-3 to 1e-7 only 1e-3 and 1e-4
-run the 10 s): the velocity pass stops converging there although the rows keep exactly one
-redundant direction (the next singular value of Phi_q M^-1/2 stays above 0.25 along the path;
-bench/NOTES.md, Spatial models). The runs here stop at 1.2 s, and the full run at tol 1e-6 is
-an expected failure until that is fixed.
+mechanism swings j1 from 0 to 180 degrees and back in about 5 s. Where j1 passes 90 degrees
+the redundant row's pivot in the factor of Phi_q M^-1 Phi_q^T rises to 1e-9 of its diagonal
+(its combination's last row takes a small part in it) though the combination stays null to
+round-off: the factor drops that row (docs/method.md, 6a) and the runs pass.
 
 Bounds. Each step's local error is held to tol (s + |y|) per coordinate (docs/method.md, 6a);
 over this quarter swing P3 ends within 0.25 to 0.31 tol of the reference at tol 1e-4 to 1e-10
 (measured), j1 within 0.5 to 0.6 tol, the energy within 0.7 to 3 tol of the largest kinetic
-energy: the bounds give at least four times that room, never tied to one machine's
+energy; over the ten seconds (four swings) the error grows as a phase error does, to 3.6, 12,
+20 and 31 tol in P3 at tol 1e-4, 1e-6, 1e-8, 1e-10 (energy 2.6 to 33 tol of the largest
+kinetic energy). The bounds give at least three times that room, never tied to one machine's
 round-off."""
 
 from __future__ import annotations
@@ -26,11 +26,10 @@ import numpy as np
 import pytest
 
 import depsim
-from depsim.runtime.errors import SolverError
 from references.bricard import BRICARD_P3, bricard_a04
 
 MODEL = Path(__file__).parent / "models" / "bricard.dep"
-QUARTER = 1.2  # s: j1 reaches 84 degrees, before the failure at 90 degrees
+QUARTER = 1.2  # s: j1 reaches 84 degrees
 
 
 @pytest.fixture(scope="module")
@@ -93,13 +92,12 @@ def test_its_loads_are_reported_not_unique(bricard):
         assert 0.0 < peak.force < 10 * weight
 
 
-@pytest.mark.xfail(raises=SolverError, strict=True,
-                   reason="the velocity pass stops converging at j1 = 90 deg (t = 1.25 s) at "
-                          "most tols although the rows keep one redundant direction")
-def test_it_runs_the_benchmarks_ten_seconds(bricard):
-    result = bricard.run(tol=1e-6)
+@pytest.mark.parametrize("tol", [1e-4, 1e-6])
+def test_it_runs_the_benchmarks_ten_seconds(bricard, tol):
+    """Through j1 = 90 degrees (where the redundant row's pivot rises) four times."""
+    result = bricard.run(tol=tol)
     t, ref = reference_until(10.0)
     np.testing.assert_allclose(result.times, t, rtol=0, atol=1e-12)
-    assert np.max(np.abs(p3(result) - ref["points"][:, 0])) < 2e-6
+    assert np.max(np.abs(p3(result) - ref["points"][:, 0])) < 40 * tol  # 3.6 and 12 tol
     energy, kinetic = result.output("energy"), result.output("kinetic")
-    assert np.ptp(energy) < 1e-5 * np.max(kinetic)
+    assert np.ptp(energy) < 40 * tol * np.max(kinetic)  # 2.6 and 11 tol

@@ -39,7 +39,7 @@ int dep_envelope_init(dep_envelope *e, int n, const int *first, dep_arena *arena
    depends on the rows before it and is dropped (its column of L and its inverse pivot are 0,
    so a solve gives the solution with that component nought: the basic solution of a
    consistent system); e->dropped counts them. */
-int dep_envelope_factor(dep_envelope *e, double drop);
+int dep_envelope_factor(dep_envelope *e, double drop, const unsigned char *forced);
 void dep_envelope_solve(const dep_envelope *e, const double *b, double *x); /* x may be b */
 /* The same for `count` right sides at once, interleaved: entry i of side v at [i count + v]. */
 void dep_envelope_solve_block(const dep_envelope *e, int count, const double *b, double *x);

@@ -26,7 +26,7 @@ int dep_envelope_init(dep_envelope *e, int n, const int *first, dep_arena *arena
     return arena->failed ? DEP_MEMORY_ERROR : DEP_OK;
 }
 
-int dep_envelope_factor(dep_envelope *e, double drop)
+int dep_envelope_factor(dep_envelope *e, double drop, const unsigned char *forced)
 {
     double largest = 0.0;
     for (int i = 0; i < e->n; ++i) {
@@ -49,7 +49,8 @@ int dep_envelope_factor(dep_envelope *e, double drop)
                 continue;
             }
             double diagonal = DEP_ENVELOPE_AT(e, e->A, i, i);
-            if (drop > 0.0 && !isnan(sum) && sum <= drop * diagonal) {
+            if (drop > 0.0 && !isnan(sum) && (sum <= drop * diagonal
+                                              || (forced != NULL && forced[i]))) {
                 DEP_ENVELOPE_AT(e, e->L, i, i) = 0.0; /* row i depends on the rows before it */
                 e->inverse[i] = 0.0;
                 e->dropped++;

@@ -315,6 +315,10 @@ typedef struct dep_multipliers { /* scratch of the iteration and its Schur-compl
     double *secant_u, *secant_w, *secant_y;
     int secants;
     double rank_drop;   /* the pivot, relative to its diagonal, below which a row is dropped */
+    unsigned char *forced; /* capacity, factor order: rows the factor drops as combinations of
+                              the rows before them (dep_schur_nulls) */
+    int weak_nulls;        /* of the n_nulls: weak rows' combinations (not null to round-off:
+                              a singular position's) */
     double *range;      /* capacity: a residual less its part along the null vectors */
     double *nulls;      /* DEP_NULL_MAX x capacity: S's null vectors (orthonormal) for the */
     long long nulls_id; /* factor of the Jacobian with this id (-1: none) */
@@ -338,17 +342,20 @@ int dep_iterate_multipliers(dep_multipliers *mp, int stage, double *lam, int nc,
    (b may be NULL). Its round-off is about DEP_EPS times that. */
 void dep_pass_magnitude(dep_multipliers *mp, const double *J, int nc, const double *lam,
                         double c, const double *x, const double *b, double *magnitude);
-/* The null vectors of the factor dep_schur_form left, one per dropped row (up to
-   DEP_NULL_MAX), orthonormal, into mp->nulls; their count. */
+/* The null vectors of the factor dep_schur_form left, one per dropped row and weak
+   combination (up to DEP_NULL_MAX), orthonormal, into mp->nulls; their count (nulls.c). */
 int dep_schur_nulls(dep_multipliers *mp, int nc);
+/* The factor of the S at hand again, dropping the rows mp->forced; 1 when factored. */
+int dep_schur_refactor(dep_multipliers *mp, int nc);
 /* x = S^-1 b for the rows J (nc x nq) with identity jacobian_id; 1 when solved. */
 int dep_schur_solve(dep_multipliers *mp, const double *J, long long jacobian_id, int nc,
                     const double *b, double *x);
 /* A row of S whose pivot is at most DEP_RANK_DROP of its diagonal depends on the rows before
-   it to round-off: S's factor drops it (dep_envelope_factor). One whose pivot is at most
-   mp->rank_drop of its diagonal (DEP_RANK_WEAK for the step's passes: the row lies within
-   3e-5 rad of the span of the others) is a direction of S's null space for the iteration,
-   which takes the minimum-norm multipliers there (dep_schur_nulls, docs/method.md, 2). */
+   it to round-off: S's factor drops it (dep_envelope_factor). A combination of rows that
+   keeps at most mp->rank_drop of their sizes (DEP_RANK_WEAK for the step's passes: a row
+   within 3e-5 rad of the span of the others) is a direction of S's null space for the
+   iteration, which takes the minimum-norm multipliers there (dep_schur_nulls, nulls.c;
+   docs/method.md, 6a). */
 #define DEP_RANK_DROP 1e-15
 #define DEP_RANK_WEAK 1e-9
 #define DEP_NULL_MAX 8 /* null vectors of S the iteration handles (more: only the first) */

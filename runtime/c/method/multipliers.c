@@ -137,7 +137,8 @@ static int fail(const dep_multipliers *mp, int stage, const dep_measurement *cur
                          ? 1.0 / mp->schur_min_pivot : 0.0;
     if (!isfinite(error)) {
         failure->kind = DEP_FAILED_NONFINITE;
-    } else if (inconsistent) {
+    } else if (inconsistent && mp->weak_nulls == 0) {
+        /* (along a weak row's combination it is a singular position's: ill-conditioned) */
         failure->kind = DEP_FAILED_INCONSISTENT;
     } else if (failure->condition >= ILL_CONDITIONED) {
         failure->kind = DEP_FAILED_CONDITION;

@@ -175,7 +175,7 @@ int dep_implicit_prepare(dep_implicit *im, const double *q, double h)
     }
     im->h = h;
     im->id++;
-    if (!dep_envelope_factor(&im->W, 0.0)) {
+    if (!dep_envelope_factor(&im->W, 0.0, NULL)) {
         im->h = 0.0;
         return 0;
     }

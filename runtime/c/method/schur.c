@@ -97,6 +97,7 @@ int dep_multipliers_init(dep_multipliers *mp, const dep_mass *mass,
     mp->range = dep_doubles(arena, nc);
     mp->nulls_id = -1;
     mp->rank_drop = DEP_RANK_DROP;
+    mp->forced = dep_bytes(arena, (size_t)nc + 1);
     return arena->failed ? DEP_MEMORY_ERROR : DEP_OK;
 }
 
@@ -172,7 +173,7 @@ static int factor_schur(dep_multipliers *mp, int nc)
             }
             if (i > j) {
                 L[i * nc + j] = L[j * nc + j] != 0.0 ? sum / L[j * nc + j] : 0.0;
-            } else if (!isnan(sum) && sum <= DEP_RANK_DROP * S[j * nc + j]) {
+            } else if (!isnan(sum) && (sum <= DEP_RANK_DROP * S[j * nc + j] || mp->forced[j])) {
                 L[j * nc + j] = 0.0; /* row j depends on the rows before it: dropped */
                 mp->schur_dropped++;
             } else if (!(sum > 0.0)) {
@@ -188,6 +189,27 @@ static int factor_schur(dep_multipliers *mp, int nc)
     }
     mp->factorizations++;
     return 1;
+}
+
+/* The envelope's factor of S (dropping the rows forced), its statistics into mp. */
+static void factor_envelope(dep_multipliers *mp)
+{
+    mp->schur_factored = dep_envelope_factor(&mp->envelope, DEP_RANK_DROP, mp->forced);
+    mp->schur_dropped = mp->envelope.dropped;
+    mp->schur_min_pivot = mp->envelope.min_pivot;
+    mp->schur_min_row = mp->envelope.min_row >= 0 && mp->permuted
+                        ? mp->order[mp->envelope.min_row] : mp->envelope.min_row;
+    mp->factorizations += mp->schur_factored;
+}
+
+int dep_schur_refactor(dep_multipliers *mp, int nc)
+{
+    if (mp->schur_envelope) {
+        factor_envelope(mp);
+    } else {
+        mp->schur_factored = factor_schur(mp, nc);
+    }
+    return mp->schur_factored;
 }
 
 /* S_ab of the envelope (b in first[a]..a). */
@@ -382,6 +404,7 @@ static int take_factor(dep_multipliers *mp, const double *J, long long id, int n
         mp->schur_min_pivot = kept->min_pivot;
         mp->schur_explicit = mp->schur_factored = 1;
         mp->schur_envelope = 0;
+        memset(mp->forced, 0, (size_t)nc); /* (its dropped rows are in its factor) */
         return 1;
     }
     return 0;
@@ -405,14 +428,10 @@ void dep_schur_form(dep_multipliers *mp, const double *J, long long id, int nc, 
     mp->schur_nc = nc;
     mp->schur_mobility = mp->mobility_id;
     mp->schur_envelope = mp->mass->inverse_diagonal != NULL && mp->mobility == NULL;
+    memset(mp->forced, 0, (size_t)nc);
     if (mp->schur_envelope && envelope_schur(mp, J, nc)) {
         mp->schur_explicit = 1;
-        mp->schur_factored = dep_envelope_factor(&mp->envelope, DEP_RANK_DROP);
-        mp->schur_dropped = mp->envelope.dropped;
-        mp->schur_min_pivot = mp->envelope.min_pivot;
-        mp->schur_min_row = mp->envelope.min_row >= 0 && mp->permuted
-                            ? mp->order[mp->envelope.min_row] : mp->envelope.min_row;
-        mp->factorizations += mp->schur_factored;
+        factor_envelope(mp);
         return;
     }
     mp->schur_envelope = 0; /* (out of memory for the envelope: conjugate gradients) */
@@ -562,84 +581,4 @@ static int pcg(dep_multipliers *mp, const double *J, int n, const double *b, lon
     }
     *iterations += maxiter;
     return dot(r, r, n) <= target2;
-}
-
-/* The null vector of the factor for its dropped row j (in the factor's order): n_j = 1, the
-   later rows 0, and L_<j^T n_<j = -L_j,<j^T by columns of the rows before j, so that
-   L^T n = 0 and S n = L L^T n = 0. row(i, k): L_ik for k in first..i. */
-static void null_vector(const dep_multipliers *mp, int nc, int j, double *n)
-{
-    const dep_envelope *e = &mp->envelope;
-    int envelope = mp->schur_envelope;
-    memset(n, 0, (size_t)nc * sizeof *n);
-    int first_j = envelope ? e->first[j] : 0;
-    for (int k = first_j; k < j; ++k) {
-        n[k] = -(envelope ? DEP_ENVELOPE_AT(e, e->L, j, k) : mp->L[j * nc + k]);
-    }
-    for (int i = j - 1; i >= 0; --i) {
-        double pivot = envelope ? DEP_ENVELOPE_AT(e, e->L, i, i) : mp->L[i * nc + i];
-        n[i] = pivot != 0.0 ? n[i] / pivot : 0.0;
-        int first_i = envelope ? e->first[i] : 0;
-        for (int k = first_i; k < i; ++k) {
-            n[k] -= (envelope ? DEP_ENVELOPE_AT(e, e->L, i, k) : mp->L[i * nc + k]) * n[i];
-        }
-    }
-    n[j] = 1.0;
-}
-
-int dep_schur_nulls(dep_multipliers *mp, int nc)
-{
-    if (mp->nulls_id == mp->schur_id && mp->schur_id >= 0) {
-        return mp->n_nulls;
-    }
-    mp->nulls_id = mp->schur_id;
-    mp->n_nulls = 0;
-    if (!mp->schur_factored || !mp->schur_explicit) {
-        return 0;
-    }
-    const dep_envelope *e = &mp->envelope;
-    long long iterations = 0;
-    for (int j = 0; j < nc && mp->n_nulls < DEP_NULL_MAX; ++j) {
-        double pivot = mp->schur_envelope ? DEP_ENVELOPE_AT(e, e->L, j, j) : mp->L[j * nc + j];
-        double diagonal = mp->schur_envelope ? DEP_ENVELOPE_AT(e, e->A, j, j) : mp->S[j * nc + j];
-        if (pivot != 0.0 && !(pivot * pivot <= mp->rank_drop * diagonal)) {
-            continue;
-        }
-        double *n = mp->nulls + (size_t)mp->n_nulls * (size_t)nc, *own = mp->permuted_out;
-        null_vector(mp, nc, j, mp->schur_envelope && mp->permuted ? own : n);
-        if (mp->schur_envelope && mp->permuted) { /* to the rows' own order */
-            for (int a = 0; a < nc; ++a) {
-                n[a] = own[mp->rank[a]];
-            }
-        }
-        if (pivot != 0.0) { /* a weak row: S n ~ pivot n; one inverse iteration makes n the
-                               eigenvector of S's smallest eigenvalue to about rank_drop */
-            dep_schur_solve_formed(mp, NULL, nc, n, n, &iterations);
-        }
-        for (int pass = 0; pass < 2; ++pass) { /* orthonormal: Gram-Schmidt, twice */
-            for (int k = 0; k < mp->n_nulls; ++k) {
-                const double *m = mp->nulls + (size_t)k * (size_t)nc;
-                double dot = 0.0;
-                for (int a = 0; a < nc; ++a) {
-                    dot += m[a] * n[a];
-                }
-                for (int a = 0; a < nc; ++a) {
-                    n[a] -= dot * m[a];
-                }
-            }
-            double norm = 0.0;
-            for (int a = 0; a < nc; ++a) {
-                norm += n[a] * n[a];
-            }
-            norm = sqrt(norm);
-            if (!(norm > 0.0) || !isfinite(norm)) {
-                break;
-            }
-            for (int a = 0; a < nc; ++a) {
-                n[a] /= norm;
-            }
-            mp->n_nulls += pass == 1;
-        }
-    }
-    return mp->n_nulls;
 }

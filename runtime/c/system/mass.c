@@ -50,7 +50,7 @@ int dep_mass_factor(dep_mass *mass, const char *const *coordinates, dep_arena *a
         return dep_plain_error(error, DEP_MEMORY_ERROR, "out of memory");
     }
     dep_mass_to_envelope(mass, e, e->A);
-    if (!dep_envelope_factor(e, 0.0)) {
+    if (!dep_envelope_factor(e, 0.0, NULL)) {
         return dep_solver_error(error, 0, 0.0, "setup", NULL, NULL, 0, 0.0,
                                 "mass matrix is not positive definite",
                                 "check masses, inertias and beam properties");

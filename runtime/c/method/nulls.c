@@ -1,0 +1,168 @@
+/* nulls.c: the null vectors of S = Phi_q G Phi_q^T that the iteration (6) deflates: the rows
+ * the factor dropped, and the weak rows whose combination of the rows before them keeps
+ * almost nothing of the rows' sizes (docs/method.md, 6a).
+ */
+#include <math.h>
+#include <string.h>
+
+#include "method.h"
+
+/* A row whose pivot is at most RANK_SCREEN times rank_drop of its diagonal is looked at as
+   the end of a combination of the rows before it (rayleigh_share). Its pivot is the
+   combination's share times the combination's rows' sizes over its own (sum_a n_a^2 S_aa /
+   S_jj, n_j = 1): the screen lets a closing row be up to RANK_SCREEN times smaller than the
+   rows it closes. */
+#define RANK_SCREEN 1e4
+/* A combination of rows keeping at most this share of their sizes is null to the round-off
+   of S's entries (a redundant row's: 1e-17 to 1e-16 along the Bricard linkage's motion). */
+#define RANK_ROUNDOFF 1e-13
+
+/* The null vector of the factor for its dropped row j (in the factor's order): n_j = 1, the
+   later rows 0, and L_<j^T n_<j = -L_j,<j^T by columns of the rows before j, so that
+   L^T n = 0 and S n = L L^T n = 0. row(i, k): L_ik for k in first..i. */
+static void null_vector(const dep_multipliers *mp, int nc, int j, double *n)
+{
+    const dep_envelope *e = &mp->envelope;
+    int envelope = mp->schur_envelope;
+    memset(n, 0, (size_t)nc * sizeof *n);
+    int first_j = envelope ? e->first[j] : 0;
+    for (int k = first_j; k < j; ++k) {
+        n[k] = -(envelope ? DEP_ENVELOPE_AT(e, e->L, j, k) : mp->L[j * nc + k]);
+    }
+    for (int i = j - 1; i >= 0; --i) {
+        double pivot = envelope ? DEP_ENVELOPE_AT(e, e->L, i, i) : mp->L[i * nc + i];
+        n[i] = pivot != 0.0 ? n[i] / pivot : 0.0;
+        int first_i = envelope ? e->first[i] : 0;
+        for (int k = first_i; k < i; ++k) {
+            n[k] -= (envelope ? DEP_ENVELOPE_AT(e, e->L, i, k) : mp->L[i * nc + k]) * n[i];
+        }
+    }
+    n[j] = 1.0;
+}
+
+/* n^T S n / sum_a n_a^2 S_aa for a vector n in the rows' order: how much of the rows'
+   own sizes the combination n of them keeps, sin^2 of the angle between a row and the span of
+   the others when n combines two. The pivot of the row that closes a combination in the
+   factor's order is that share divided by the row's part in it squared, so a combination
+   whose last row takes a small part of it shows a larger pivot than it is independent (the
+   IFToMM Bricard linkage's redundant row: pivots of 1e-15 to 2e-9 of their diagonal along
+   its motion for the same combination of its rows). */
+static double rayleigh_share(const dep_multipliers *mp, int nc, const double *n)
+{
+    const dep_envelope *e = &mp->envelope;
+    double form = 0.0, sizes = 0.0;
+    for (int a = 0; a < nc; ++a) {
+        int i = mp->schur_envelope && mp->permuted ? mp->rank[a] : a;
+        for (int b = 0; b < nc; ++b) {
+            int k = mp->schur_envelope && mp->permuted ? mp->rank[b] : b;
+            double value;
+            if (!mp->schur_envelope) {
+                value = mp->S[a * nc + b];
+            } else {
+                int row = i > k ? i : k, col = i > k ? k : i;
+                value = col >= e->first[row] ? DEP_ENVELOPE_AT(e, e->A, row, col) : 0.0;
+            }
+            form += n[a] * value * n[b];
+        }
+        sizes += n[a] * n[a] * (mp->schur_envelope ? DEP_ENVELOPE_AT(e, e->A, i, i)
+                                                   : mp->S[a * nc + a]);
+    }
+    return sizes > 0.0 ? fabs(form) / sizes : 0.0;
+}
+
+/* n less its parts along the null vectors found (Gram-Schmidt, twice), of unit length; 0
+   when nothing is left. */
+static int orthonormal(const dep_multipliers *mp, int nc, double *n)
+{
+    for (int pass = 0; pass < 2; ++pass) {
+        for (int k = 0; k < mp->n_nulls; ++k) {
+            const double *m = mp->nulls + (size_t)k * (size_t)nc;
+            double dot = 0.0;
+            for (int a = 0; a < nc; ++a) {
+                dot += m[a] * n[a];
+            }
+            for (int a = 0; a < nc; ++a) {
+                n[a] -= dot * m[a];
+            }
+        }
+        double norm = 0.0;
+        for (int a = 0; a < nc; ++a) {
+            norm += n[a] * n[a];
+        }
+        norm = sqrt(norm);
+        if (!(norm > 0.0) || !isfinite(norm)) {
+            return 0;
+        }
+        for (int a = 0; a < nc; ++a) {
+            n[a] /= norm;
+        }
+    }
+    return 1;
+}
+
+/* The null vectors of the factor at hand into mp->nulls (dep_schur_nulls): a dropped row's,
+   and a weak row's whose combination keeps at most rank_drop of its rows' sizes
+   (rayleigh_share). A weak row that closes a combination of the rows before it null to
+   round-off (RANK_ROUNDOFF: a redundant row, which stays one along the motion) is dropped
+   (mp->forced) and S factored again without it, so that the solves do not divide by its
+   pivot, whose round-off would spread to the other rows' multipliers; one near a singular
+   position keeps its pivot (the failure's condition tells it). 1 when a row was forced (S
+   is to be factored again and the nulls found again). */
+static int find_nulls(dep_multipliers *mp, int nc)
+{
+    const dep_envelope *e = &mp->envelope;
+    long long iterations = 0;
+    mp->n_nulls = mp->weak_nulls = 0;
+    for (int k = 0; k < 2 * nc && mp->n_nulls < DEP_NULL_MAX; ++k) {
+        int j = k % nc; /* the dropped rows first, then the weak ones (apart from those) */
+        double pivot = mp->schur_envelope ? DEP_ENVELOPE_AT(e, e->L, j, j) : mp->L[j * nc + j];
+        double diagonal = mp->schur_envelope ? DEP_ENVELOPE_AT(e, e->A, j, j) : mp->S[j * nc + j];
+        if ((k < nc) != (pivot == 0.0)
+            || (pivot != 0.0 && !(pivot * pivot <= RANK_SCREEN * mp->rank_drop * diagonal))) {
+            continue;
+        }
+        double *n = mp->nulls + (size_t)mp->n_nulls * (size_t)nc, *own = mp->permuted_out;
+        null_vector(mp, nc, j, mp->schur_envelope && mp->permuted ? own : n);
+        if (mp->schur_envelope && mp->permuted) { /* to the rows' own order */
+            for (int a = 0; a < nc; ++a) {
+                n[a] = own[mp->rank[a]];
+            }
+        }
+        if (pivot != 0.0 && rayleigh_share(mp, nc, n) <= RANK_ROUNDOFF) {
+            mp->forced[j] = 1; /* the row is a combination of the rows before it */
+            return 1;
+        }
+        if (pivot != 0.0) { /* a weak row: S n ~ pivot n; one inverse iteration makes n the
+                               eigenvector of S's smallest eigenvalue (apart from the null
+                               vectors found) to about rank_drop */
+            orthonormal(mp, nc, n);
+            dep_schur_solve_formed(mp, NULL, nc, n, n, &iterations);
+            if (!orthonormal(mp, nc, n) || !(rayleigh_share(mp, nc, n) <= mp->rank_drop)) {
+                continue; /* the rows it combines are independent enough */
+            }
+        }
+        int found = orthonormal(mp, nc, n);
+        mp->n_nulls += found;
+        mp->weak_nulls += found && pivot != 0.0;
+    }
+    return 0;
+}
+
+int dep_schur_nulls(dep_multipliers *mp, int nc)
+{
+    if (mp->nulls_id == mp->schur_id && mp->schur_id >= 0) {
+        return mp->n_nulls;
+    }
+    mp->nulls_id = mp->schur_id;
+    mp->n_nulls = mp->weak_nulls = 0;
+    if (!mp->schur_factored || !mp->schur_explicit) {
+        return 0;
+    }
+    for (int round = 0; round < DEP_NULL_MAX && find_nulls(mp, nc); ++round) {
+        if (!dep_schur_refactor(mp, nc)) { /* S again without the rows forced */
+            mp->n_nulls = 0;
+            return 0;
+        }
+    }
+    return mp->n_nulls;
+}
