@@ -127,13 +127,16 @@ class SpatialKinematics:
         # named symbols while derive differentiates, and is put back at the end
         # (`constants`): the expressions of q stay small.
         self.constants: dict[sympy.Symbol, sympy.Expr] = {}
+        self._resolved: dict[sympy.Symbol, sympy.Expr] = {}  # resolved(), the first ones
 
     def named(self, name: str, value: sympy.Expr) -> sympy.Expr:
         """`value` (a function of p) as the symbol `@name`, or itself when a number."""
         if value.is_number:
             return value
         symbol = sympy.Symbol(f"@{name}")
-        self.constants[symbol] = value
+        if self.constants.setdefault(symbol, value) != value:  # named again as another value
+            self.constants[symbol] = value
+            self._resolved.clear()
         return symbol
 
     def _named_vector(self, name: str, vector) -> Vector3:
@@ -241,9 +244,10 @@ class SpatialKinematics:
 
     def resolved(self) -> dict[sympy.Symbol, sympy.Expr]:
         """Each named constant as an expression of p alone (a name's value may use earlier
-        names)."""
-        found: dict[sympy.Symbol, sympy.Expr] = {}
-        for symbol, value in self.constants.items():
+        names); those resolved before are kept (every hinge asks: resolving all names
+        again each time would grow as the square of the hinges)."""
+        found = self._resolved
+        for symbol, value in list(self.constants.items())[len(found):]:
             found[symbol] = value.xreplace(found)
         return found
 
@@ -252,7 +256,7 @@ class SpatialKinematics:
             hinge = self.model.hinges[index]
             name = hinge.name
             raw = tuple(self.const(component) for component in hinge.axis)
-            defaults = tuple(float(value.subs(self._defaults())) for value in raw)
+            defaults = tuple(float(value.xreplace(self._defaults())) for value in raw)
             axis = self._named_vector(f"{name}.axis", unit(raw))
             e, f = normal_pair(axis, defaults)
             e, f = self._named_vector(f"{name}.e", e), self._named_vector(f"{name}.f", f)
@@ -409,7 +413,7 @@ class SpatialKinematics:
         """A slider's unit axis a and two unit normals e, f in member A's frame (named)."""
         slider = self.model.sliders[index]
         raw = tuple(self.const(component) for component in slider.axis)
-        defaults = tuple(float(value.subs(self._defaults())) for value in raw)
+        defaults = tuple(float(value.xreplace(self._defaults())) for value in raw)
         axis = self._named_vector(f"{slider.name}.axis", unit(raw))
         e, f = normal_pair(axis, defaults)
         return axis, self._named_vector(f"{slider.name}.e", e), \
