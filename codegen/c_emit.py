@@ -23,7 +23,8 @@ from pathlib import Path
 from depsim.dsl import ir
 
 from depsim.runtime import interface
-from depsim.runtime.core import CFLAGS, CORE_FOLDER, PROGRAM_SOURCES, SOURCE_DIR, core_files
+from depsim.runtime.core import (CFLAGS, CORE_FOLDER, MODEL_EXTRA_CFLAGS, PROGRAM_SOURCES,
+                                 SOURCE_DIR, core_files)
 
 from .c_printer import CPrinter, c_comment, c_double, c_file_stem, c_string
 from .derive import SymbolicSystem, derive
@@ -114,6 +115,7 @@ class CModuleView:
     functions: tuple[CFunction, ...]
     files: tuple[CFile, ...]  # model.c, then model_<name>.c for each long function
     library_sources: tuple[str, ...]  # .c files of the library (model*.c and the integrator)
+    model_objects: tuple[str, ...]  # the objects of the generated model*.c (MODEL_CFLAGS)
     program_sources: tuple[str, ...]  # the program's own .c files but main.c
     headers: tuple[str, ...]  # every header the sources include (make's dependencies)
 
@@ -181,7 +183,7 @@ def c_view(view: ModuleView, runtime_files: tuple[str, ...]) -> CModuleView:
     headers = ("model.h",) + tuple(sorted(f for f in runtime_files
                                           if f.endswith((".h", ".inc"))))
     return CModuleView(m, c_file_stem(m.model_name), sizes, _tables(m), functions, files,
-                       sources, program, headers)
+                       sources, tuple(f.name[:-2] + ".o" for f in files), program, headers)
 
 
 def c_sources(model: ir.Model, system: SymbolicSystem | None = None) -> dict[str, str]:
@@ -196,8 +198,8 @@ def c_target(model: ir.Model, system: SymbolicSystem | None = None
     codegen.fmu) and the generated files of `c_sources`, from one lowering."""
     view = lower_module(model, system or derive(model), CPrinter, DEPSIM_VERSION)
     c = c_view(view, tuple(core_folder_files()))
-    files = {name: C_ENVIRONMENT.get_template(f"c/{name}.j2").render(c=c, m=view,
-                                                                     cflags=" ".join(CFLAGS))
+    files = {name: C_ENVIRONMENT.get_template(f"c/{name}.j2").render(
+                 c=c, m=view, cflags=" ".join(CFLAGS), model_cflags=" ".join(MODEL_EXTRA_CFLAGS))
              for name in GENERATED_FILES if name != "model.c"}
     template = C_ENVIRONMENT.get_template("c/model.c.j2")
     files.update({f.name: template.render(c=c, m=view, file=f) for f in c.files})

@@ -27,7 +27,7 @@ from pathlib import Path
 
 from depsim.dsl import ir
 
-from depsim.runtime.core import FMU_SOURCES, SOURCE_DIR
+from depsim.runtime.core import FMU_SOURCES, MODEL_EXTRA_CFLAGS, SOURCE_DIR
 
 from .c_emit import C_ENVIRONMENT, PROGRAM_FILES, c_target, core_folder_files
 from .c_printer import c_file_stem
@@ -347,7 +347,8 @@ def compile_fmu(model: ir.Model, path: str | Path, system: SymbolicSystem | None
 
 def _build(view: FmuView, files: dict[str, str], folder: Path, flags: tuple[str, ...]) -> bytes:
     """Compile the sources into the FMU's shared object (one compiler per source, in
-    parallel, then one link); its bytes."""
+    parallel, the generated model*.c adding MODEL_EXTRA_CFLAGS, then one link); its
+    bytes."""
     from depsim.runtime.core import compiler, run_compilers
 
     for name, text in files.items():
@@ -356,7 +357,8 @@ def _build(view: FmuView, files: dict[str, str], folder: Path, flags: tuple[str,
             (folder / name).write_text(text, encoding="utf-8", newline="\n")
     cc = compiler()
     objects = [f"{k}_{Path(source).stem}.o" for k, source in enumerate(view.source_files)]
-    run_compilers([[*cc, *flags, "-c", "-o", obj, source]
+    run_compilers([[*cc, *flags, *(MODEL_EXTRA_CFLAGS if source.startswith("model") else ()),
+                    "-c", "-o", obj, source]
                    for source, obj in zip(view.source_files, objects)], "the FMU's binary", folder)
     target = f"{view.identifier}.so"
     run_compilers([[*cc, *flags, "-o", target, *objects, "-lm"]], "the FMU's binary", folder)

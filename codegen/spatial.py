@@ -138,13 +138,16 @@ class SpatialKinematics:
         # named symbols while derive differentiates, and is put back at the end
         # (`constants`): the expressions of q stay small.
         self.constants: dict[sympy.Symbol, sympy.Expr] = {}
+        self._resolved: dict[sympy.Symbol, sympy.Expr] = {}  # resolved(), the first ones
 
     def named(self, name: str, value: sympy.Expr) -> sympy.Expr:
         """`value` (a function of p) as the symbol `@name`, or itself when a number."""
         if value.is_number:
             return value
         symbol = sympy.Symbol(f"@{name}")
-        self.constants[symbol] = value
+        if self.constants.setdefault(symbol, value) != value:  # named again as another value
+            self.constants[symbol] = value
+            self._resolved.clear()
         return symbol
 
     def _named_vector(self, name: str, vector) -> Vector3:
@@ -258,9 +261,10 @@ class SpatialKinematics:
 
     def resolved(self) -> dict[sympy.Symbol, sympy.Expr]:
         """Each named constant as an expression of p alone (a name's value may use earlier
-        names)."""
-        found: dict[sympy.Symbol, sympy.Expr] = {}
-        for symbol, value in self.constants.items():
+        names); those resolved before are kept (every hinge asks: resolving all names
+        again each time would grow as the square of the hinges)."""
+        found = self._resolved
+        for symbol, value in list(self.constants.items())[len(found):]:
             found[symbol] = value.xreplace(found)
         return found
 
@@ -269,7 +273,7 @@ class SpatialKinematics:
             hinge = self.model.hinges[index]
             name = hinge.name
             raw = tuple(self.const(component) for component in hinge.axis)
-            defaults = tuple(float(value.subs(self._defaults())) for value in raw)
+            defaults = tuple(float(value.xreplace(self._defaults())) for value in raw)
             axis = self._named_vector(f"{name}.axis", unit(raw))
             e, f = normal_pair(axis, defaults)
             e, f = self._named_vector(f"{name}.e", e), self._named_vector(f"{name}.f", f)
@@ -298,19 +302,29 @@ class SpatialKinematics:
         would make the explicit step stiff (a panel's thickness). With (C0 + i S0) the pair of
         u = R_A s_A and w = R_B s_B, (C + i S) = (C0 + i S0) e^(-i delta), delta = near -
         beta, beta the angle from s_B's reference to s_A about the axis."""
-        hinge, frame = self.model.hinges[index], self.hinge_frame(index)
+        hinge = self.model.hinges[index]
+        s_a, s_b, axis, turned = self._turn_vectors(index, near)
         ra, rb = self.rotation(hinge.a.member), self.rotation(hinge.b.member)
+        u, w, n = times(ra, s_a), times(rb, s_b), times(ra, axis)
+        return turned(dot(cross(u, w), n), dot(u, w))
+
+    def _turn_vectors(self, index: int, near: sympy.Expr):
+        """s_A and the axis a (A's frame), s_B (B's frame, named) of hinge_turn_parts, and
+        (S0, C0) -> (S, C), the turn by -delta."""
+        hinge, frame = self.model.hinges[index], self.hinge_frame(index)
         t_a, t_b = self._measuring_turns(index)
         s_a = tuple(math.cos(t_a) * e + math.sin(t_a) * f for e, f in zip(frame.e, frame.f))
         s_b = times(frame.relative.T, tuple(math.cos(t_b) * e + math.sin(t_b) * f
                                             for e, f in zip(frame.e, frame.f)))
         s_b = self._named_vector(f"{hinge.name}.s_b", s_b)
-        u, w, n = times(ra, s_a), times(rb, s_b), times(ra, frame.axis)
-        sine, cosine = dot(cross(u, w), n), dot(u, w)
         delta = near - (t_a - t_b)
         c, s = self.named(f"{hinge.name}.cos_delta", sympy.cos(delta)), \
             self.named(f"{hinge.name}.sin_delta", sympy.sin(delta))
-        return sine * c - cosine * s, cosine * c + sine * s
+
+        def turned(sine: sympy.Expr, cosine: sympy.Expr) -> tuple[sympy.Expr, sympy.Expr]:
+            return sine * c - cosine * s, cosine * c + sine * s
+
+        return s_a, s_b, frame.axis, turned
 
     def _measuring_turns(self, index: int) -> tuple[float, float]:
         """(t_A, t_B): the directions cos t e + sin t f (A's frame) of s_A and of s_B (B's,
@@ -366,25 +380,44 @@ class SpatialKinematics:
             -(theta'_q qd) = -sign ((C S'' - S C'') D - 2 (C S' - S C') (S S' + C C')) / D^2,
 
         S'' = (S'_q qd) (S is bilinear in q, so these stay small where sympy's derivatives of
-        atan2 would not)."""
-        sign = self.model.hinges[index].sign
-        sine, cosine = self.hinge_turn_parts(index, self.hinge_near(index))
-        q, qd = self.symbols.q, self.symbols.qd
-        position = {s: j for j, s in enumerate(q)}
-        present = sorted((sine.free_symbols | cosine.free_symbols) & position.keys(),
-                         key=position.get)
-        grad_s = {position[s]: sine.diff(s) for s in present}
-        grad_c = {position[s]: cosine.diff(s) for s in present}
+        atan2 would not). S and C are the triple product [u, w, n] and u . w of vectors
+        linear in q (u = R_A s_A, w = R_B s_B, n = R_A a; hinge_turn_parts), so their
+        derivatives come from the product rule on those vectors (u'' = 0 along qd), not from
+        differentiating the expressions written out: d u / d R_A[i, j] = s_A[j] e_i, and
+
+            [u, w, n]'  = [u', w, n] + [u, w', n] + [u, w, n'],
+            [u, w, n]'' = 2 ([u', w', n] + [u', w, n'] + [u, w', n'])."""
+        hinge = self.model.hinges[index]
+        s_a, s_b, axis, turned = self._turn_vectors(index, self.hinge_near(index))
+        ra, rb = self.rotation(hinge.a.member), self.rotation(hinge.b.member)
+        rate_a, rate_b = self._rotation_rate(hinge.a.member), self._rotation_rate(hinge.b.member)
+        u, w, n = times(ra, s_a), times(rb, s_b), times(ra, axis)
+        du, dw, dn = times(rate_a, s_a), times(rate_b, s_b), times(rate_a, axis)
+        wn, nu, uw = cross(w, n), cross(n, u), cross(u, w)
+        sine, cosine = turned(dot(uw, n), dot(u, w))
+        rate_s, rate_c = turned(dot(du, wn) + dot(dw, nu) + dot(dn, uw), dot(du, w) + dot(u, dw))
+        second_s, second_c = turned(
+            2 * (dot(cross(du, dw), n) + dot(cross(du, w), dn) + dot(cross(u, dw), dn)),
+            2 * dot(du, dw))
         size = sine**2 + cosine**2
-        gradient = {j: sign * (cosine * grad_s[j] - sine * grad_c[j]) / size for j in grad_s}
-        gradient = {j: g for j, g in gradient.items() if g != 0}
-        rate_s = sympy.Add(*(g * qd[j] for j, g in grad_s.items()))
-        rate_c = sympy.Add(*(g * qd[j] for j, g in grad_c.items()))
-        second_s = sympy.Add(*(rate_s.diff(s) * qd[position[s]] for s in present))
-        second_c = sympy.Add(*(rate_c.diff(s) * qd[position[s]] for s in present))
+        # d/dR_A[i, j] moves u and n (by s_A[j] e_i and a[j] e_i), d/dR_B[i, j] moves w
+        partials = ((hinge.a.member, lambda i, j: (wn[i] * s_a[j] + uw[i] * axis[j],
+                                                   w[i] * s_a[j])),
+                    (hinge.b.member, lambda i, j: (nu[i] * s_b[j], u[i] * s_b[j])))
+        gradient = {}
+        for member, partial in partials:
+            if member.kind is not ir.MemberKind.BODY:
+                continue
+            start = 12 * member.index + 3  # its R11 (body_symbols)
+            for i in range(3):
+                for j in range(3):
+                    grad_s, grad_c = turned(*partial(i, j))
+                    gradient[start + 3 * i + j] = \
+                        hinge.sign * (cosine * grad_s - sine * grad_c) / size
+        gradient = {j: g for j, g in sorted(gradient.items()) if g != 0}
         numerator = cosine * rate_s - sine * rate_c
-        gamma = -sign * ((cosine * second_s - sine * second_c) * size
-                         - 2 * numerator * (sine * rate_s + cosine * rate_c)) / size**2
+        gamma = -hinge.sign * ((cosine * second_s - sine * second_c) * size
+                               - 2 * numerator * (sine * rate_s + cosine * rate_c)) / size**2
         return gradient, gamma
 
     def axis_frame(self, name: str, direction: tuple[ir.Expr, ...]
@@ -392,10 +425,16 @@ class SpatialKinematics:
         """A joint's unit axis a (from the IR direction) and two unit normals e, f (named
         NAME.axis, NAME.e, NAME.f), in the frame the direction is given in."""
         raw = tuple(self.const(component) for component in direction)
-        defaults = tuple(float(value.subs(self._defaults())) for value in raw)
+        defaults = tuple(float(value.xreplace(self._defaults())) for value in raw)
         axis = self._named_vector(f"{name}.axis", unit(raw))
         e, f = normal_pair(axis, defaults)
         return axis, self._named_vector(f"{name}.e", e), self._named_vector(f"{name}.f", f)
+
+    def _rotation_rate(self, member: ir.Member) -> sympy.Matrix:
+        """R' of a body (the rates of its rotation matrix's entries); zero for the ground."""
+        if member.kind is ir.MemberKind.GROUND:
+            return sympy.zeros(3, 3)
+        return self.rotation(member).applyfunc(lambda s: self._rate_of[s])
 
     def slider_frame(self, index: int) -> tuple[Vector3, Vector3, Vector3]:
         """A slider's unit axis a and two unit normals e, f in member A's frame (named)."""

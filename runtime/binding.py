@@ -27,7 +27,7 @@ from types import ModuleType
 import numpy as np
 
 from . import interface
-from .core import build_shared_library, core_library_path, ffi
+from .core import MODEL_CFLAGS, build_shared_library, core_library_path, ffi
 
 MODEL_LIBRARY = "libdepsim_model.so"
 MODEL_SOURCE = "model.c"
@@ -121,17 +121,16 @@ def load_c_module(path) -> CModule:
 def build_model_library(folder, flags: tuple[str, ...] | None = None) -> Path:
     """Compile the model of a C target folder (`model.c` and any `model_<function>.c`; the
     integrator is the core's) into `folder/build/<key>/libdepsim_model.so`, unless it is
-    there already. Raises CBuildError."""
+    there already; `flags` default to MODEL_CFLAGS. Raises CBuildError."""
     folder = Path(folder)
     source = folder / MODEL_SOURCE
     if not source.is_file():
         from .core import CBuildError
 
         raise CBuildError(f"{folder} is not a depsim C target folder (no {MODEL_SOURCE})")
-    extra = {} if flags is None else {"flags": tuple(flags)}
     sources = [source] + sorted(folder.glob("model_*.c"))
     return build_shared_library(sources, folder / "build", MODEL_LIBRARY, include=(folder,),
-                                **extra)
+                                flags=MODEL_CFLAGS if flags is None else tuple(flags))
 
 
 def load_module(path) -> ModuleType:
