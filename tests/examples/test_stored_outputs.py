@@ -26,6 +26,12 @@ NAMES = ("pendulum", "slider_crank", "fourbar", "intelsat5", "two_link_flex", "a
 # the linearly implicit step damps, by up to 90 tol (the core built with -mfma): tip2
 # 8.7e-7 m at tol 1e-8. Those runs are compared at ten times that.
 FACTORS = {"two_link_flex": 1000.0}
+# The spatial examples' joint loads go through compliant latches' contacts, whose times move
+# with the steps: they are compared as the peak loads are (stored_outputs.output_differences;
+# the core built with -mfma moves reflector_arm's by 5.3e-4 N, 4e3 tol of its 13 N).
+LOADS = {"canted_wing": ("root_force", "root_moment", "inner_force"),
+         "reflector_arm": ("shoulder_torque", "shoulder_moment", "shoulder_force",
+                           "elbow_torque", "elbow_force")}
 
 
 @pytest.fixture(scope="module")
@@ -62,7 +68,8 @@ def test_the_example_is_what_it_was(name, runs, same_arithmetic, monkeypatch):
         return
     monkeypatch.setattr(stored_outputs, "FACTOR", FACTORS.get(name, stored_outputs.FACTOR))
     tol = reference["tolerances"]["tol"]
-    assert stored_outputs.output_differences(text, reference_text, tol) == []
+    assert stored_outputs.output_differences(text, reference_text, tol,
+                                             LOADS.get(name, ())) == []
     assert stored_outputs.summary_differences(summary, reference, tol) == []
 
 
