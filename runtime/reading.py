@@ -95,10 +95,16 @@ def _records(module, r) -> tuple[EventRecord, ...]:
 
 
 def _peaks(module, r) -> dict:
-    return {h: PeakLoad(float(r.peak_loads[k].force), float(r.peak_loads[k].t_force),
-                        float(r.peak_loads[k].torque), float(r.peak_loads[k].t_torque),
-                        bool(r.peak_loads[k].unique))
-            for k, h in enumerate(module.HINGES)}
+    """Each hinge's peak loads; a slider's entry (docs/language.md, slider) has its lock force
+    along its axis as its force (the core tracks it as a hinge's lock torque) and no torque."""
+    sliders = set(getattr(module, "SLIDERS", ()))
+    found = {}
+    for k, h in enumerate(module.HINGES):
+        peak = r.peak_loads[k]
+        values = (peak.force, peak.t_force, peak.torque, peak.t_torque) if h not in sliders \
+            else (peak.torque, peak.t_torque, 0.0, math.nan)
+        found[h] = PeakLoad(*map(float, values), bool(peak.unique))
+    return found
 
 
 def _optional(value: float) -> float | None:

@@ -214,7 +214,11 @@ _EVENT_DATA = {"t": ("s", "time"), "rate": ("rad/s", "rate just before"),
                "impulse": ("N*m*s", "angular impulse"),
                "impact_energy_loss": ("J", "energy lost in the impact"),
                "angle": ("rad", "angle"), "torque": ("N*m", "holding torque"),
+               "position": ("m", "position"), "force": ("N", "holding force"),
                "direction": ("1", "direction"), "rigid": ("1", "rigid (1) or compliant (0)")}
+# a slider's (its entry among the hinges moves along its axis: docs/language.md, slider)
+_SLIDER_EVENT_DATA = {**_EVENT_DATA, "rate": ("m/s", "rate just before"),
+                      "impulse": ("N*s", "impulse")}
 _HINGE_EVENTS = ("latch", "latch.contact", "latch.separation", "stop", "stick", "slip")
 _DISSIPATED = {"friction": "hinge friction", "damping": "dampers", "latch": "latch dampers",
                "input": "inputs (negative: work done)", "impact": "impacts (latches, stops)"}
@@ -239,13 +243,16 @@ def _describe(name: str, module, metrics: Mapping[str, Metric]) -> tuple[str, st
     group, _, rest = name.partition(".")
     if group == "event":
         event, _, key = rest.rpartition(".")
-        unit, text = _EVENT_DATA.get(key, ("", key))
         hinge, _, kind = event.partition(".")
+        table = _SLIDER_EVENT_DATA if hinge in getattr(module, "SLIDERS", ()) else _EVENT_DATA
+        unit, text = table.get(key, ("", key))
         mechanism = hinge in getattr(module, "HINGES", ()) and kind in _HINGE_EVENTS
         return (unit if mechanism or key == "t" else ""), f"{event}: {text}"
     if group == "peak":
         hinge, _, field = rest.rpartition(".")
         unit, text = _PEAKS.get(field, ("", field))
+        if hinge in getattr(module, "SLIDERS", ()) and field in ("force", "t_force"):
+            text = text.replace("hinge force", "lock force along the axis")
         return unit, f"{text} at {hinge}"
     if group == "dissipated":
         return "J", f"energy dissipated by {_DISSIPATED.get(rest, rest)}"

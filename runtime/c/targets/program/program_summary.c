@@ -286,6 +286,17 @@ static void deployment(json *j, const dep_deployment *d)
     close_(j, '}');
 }
 
+/* Whether hinge entry k is a slider's (its name is one: names are unique in a model). */
+static int slider_entry(int k)
+{
+    for (int s = 0; s < depsim_model.ns; ++s) {
+        if (strcmp(depsim_model.slider_names[s], depsim_model.hinge_names[k]) == 0) {
+            return 1;
+        }
+    }
+    return 0;
+}
+
 static void peak_loads(json *j, const dep_result *r)
 {
     key(j, "peak_hinge_loads");
@@ -294,6 +305,11 @@ static void peak_loads(json *j, const dep_result *r)
         const dep_peak *p = &r->peak_loads[k];
         const char *names[4] = {"force", "t_force", "torque", "t_torque"};
         double values[4] = {p->force, p->t_force, p->torque, p->t_torque};
+        if (slider_entry(k)) { /* a slider's: its lock force, along its axis (as
+                                  runtime/reading.py) */
+            double slider[4] = {p->torque, p->t_torque, 0.0, NAN};
+            memcpy(values, slider, sizeof values);
+        }
         key(j, depsim_model.hinge_names[k]);
         open_(j, '{');
         for (int v = 0; v < 4; ++v) {
