@@ -151,8 +151,8 @@ static void normal_solve(assembly *x, const double *b, double damping, double *s
             d[c] = sum;
             largest = fmax(largest, sum);
         }
-        for (int c = 0; c < n; ++c) {
-            d[c] += damping * d[c] + 1e-14 * fmax(largest, 1e-300);
+        for (int c = 0; c < n; ++c) { /* D alone: A^T A is the rows' side's A D^-1 A^T */
+            d[c] = damping * d[c] + 1e-14 * fmax(largest, 1e-300);
         }
         for (int a = 0; a < live; ++a) {
             const double *Aa = x->A + (size_t)rows[a] * n;
