@@ -561,9 +561,9 @@ class SpatialKinematics:
         if kind == "cylindrical":  # the axis rows as a hinge's; the normal rows act at b's point
             v = self.cylindrical_parts(index)
             return tuple(lam["axis_2"] * e - lam["axis_1"] * f for e, f in zip(v["e"], v["f"]))
-        if kind == "weld":
-            weld = self.model.welds[index]
-            if not weld.rotational:
+        if kind in ("weld", "slider"):  # rows rx, ry, rz (a slider's when B is a body)
+            weld = self.model.welds[index] if kind == "weld" else self.model.sliders[index]
+            if "rx" not in lam:
                 return (zero, zero, zero)
             target = self.rotation(weld.a.member) \
                 * self.relative_orientation(weld.a.member, weld.b.member)

@@ -24,6 +24,7 @@ import sympy
 from depsim.dsl import ir
 
 from .kinematics import Kinematics, core_sliders
+from .spatial import times
 
 # The columns of the generated system_state(q, qd, p) (depsim.runtime.interface).
 SYSTEM_STATE = ("mass", "com_x", "com_y", "momentum_x", "momentum_y", "angular_momentum")
@@ -117,6 +118,8 @@ class OutputScope:
         if kind == "spring":
             law = self.springs[index]
             return {"force": law.force, "length": law.length, "rate": law.rate}[quantity]
+        if kind == "slider" and quantity != "force":  # its rows' reaction, spatial
+            return self._slider_reaction(index, quantity)
         if kind == "slider":  # its lock force (run value), 0 when nothing can lock it
             sliding = core_sliders(self.kin.model)
             if index not in sliding:
@@ -150,6 +153,24 @@ class OutputScope:
                      for axis in axes}
         force["force"] = sympy.sqrt(sympy.Add(*(value**2 for value in force.values())))
         return force[quantity]
+
+    def _slider_reaction(self, index: int, quantity: str) -> sympy.Expr:
+        """A spatial slider's reaction on B from A through its rows (world frame): the force
+        of its normal rows (R_A e) . d, (R_A f) . d, -(lambda_1 R_A e + lambda_2 R_A f), normal
+        to the axis; the moment of its turn rows about B's point, as a weld's (none on a
+        particle)."""
+        slider = self.kin.model.sliders[index]
+        lam = self._row_multipliers(slider.name)
+        if quantity.startswith("moment"):
+            moment = self.kin.reaction_moment("slider", index, lam)
+            if quantity == "moment":
+                return sympy.sqrt(sympy.Add(*(value**2 for value in moment)))
+            return moment["xyz".index(quantity[-1])]
+        _, e, f = self.kin.slider_frame(index)
+        rotation = self.kin.rotation(slider.a.member)
+        e, f = times(rotation, e), times(rotation, f)
+        return -(lam["normal_1"] * e["xyz".index(quantity[-1])]
+                 + lam["normal_2"] * f["xyz".index(quantity[-1])])
 
     def _row_multipliers(self, joint: str) -> dict[str, sympy.Expr]:
         """A joint's multipliers by their rows' components (x, axis_1, rx, ...)."""

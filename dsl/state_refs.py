@@ -46,7 +46,10 @@ SPATIAL_REACTIONS = {"force_x": FORCE, "force_y": FORCE, "force_z": FORCE, "forc
                      "moment": TORQUE}
 SPATIAL_LOADS = {"hinge": {**SPATIAL_REACTIONS, "torque": TORQUE}, "weld": SPATIAL_REACTIONS,
                  "ball": SPATIAL_REACTIONS, "spring": LOADS["spring"],
-                 "slider": LOADS["slider"],
+                 # a slider's force is its lock force along the axis; its rows' reaction,
+                 # normal to the axis, and moment are force_x, ..., moment
+                 "slider": {**{k: v for k, v in SPATIAL_REACTIONS.items() if k != "force"},
+                            **LOADS["slider"]},
                  "cylindrical": {"angle": ANGLE, "rate": Dim(angle=1, time=-1),
                                  "position": LENGTH, "velocity": VELOCITY,
                                  **SPATIAL_REACTIONS},

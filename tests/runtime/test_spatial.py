@@ -352,7 +352,8 @@ output energy = system.energy
 
 def test_a_carriage_slides_down_a_tilted_rail_as_gravity_along_it_says(tmp_path):
     """A slider on a rail along (1, 2, -2) (unit (1, 2, -2)/3): the carriage keeps its
-    orientation and moves s = s0 + v0 t + (g . a) t^2 / 2, g . a = 9.81 * 2/3."""
+    orientation and moves s = s0 + v0 t + (g . a) t^2 / 2, g . a = 9.81 * 2/3; the rail
+    carries the rest of its weight and the moment that keeps it from turning."""
     text = """model rail spatial "A carriage on a tilted rail"
 gravity = (0, 0, -9.81) m/s^2
 ground { point start = (0.2, -0.1, 1) m }
@@ -367,6 +368,13 @@ initial { rail = 0.1 m; rail.rate = 0.5 m/s }
 simulate { t_end = 1 s; tol = 1e-10; dt_out = 0.1 s }
 output s = rail
 output shoe_z = carriage.shoe.z
+output fx = rail.force_x
+output fy = rail.force_y
+output fz = rail.force_z
+output mx = rail.moment_x
+output my = rail.moment_y
+output mz = rail.moment_z
+output lock = rail.force
 """
     result = compile_text(tmp_path, "rail", text).run()
     t = result.times
@@ -376,6 +384,18 @@ output shoe_z = carriage.shoe.z
     turned = rot([0, 0, 1], math.radians(20))
     np.testing.assert_allclose(rotations(result, "carriage"), np.broadcast_to(turned, (len(t), 3, 3)),
                                rtol=0, atol=1e-10)
+    # the rail's reaction: the weight's part normal to the axis, held up, -m (g - (g . a) a);
+    # its moment about the shoe keeps the carriage from turning, (r_cm - r_shoe) x F
+    a, g = np.array([1.0, 2, -2]) / 3, np.array([0, 0, -9.81])
+    force = -2.0 * (g - (g @ a) * a)
+    reported = np.column_stack([result.output(f"f{k}") for k in "xyz"])
+    np.testing.assert_allclose(reported, np.broadcast_to(force, reported.shape), rtol=0,
+                               atol=1e-9 * 2 * 9.81)
+    moment = np.cross(-turned @ np.array([0.05, 0, -0.03]), force)
+    reported = np.column_stack([result.output(f"m{k}") for k in "xyz"])
+    np.testing.assert_allclose(reported, np.broadcast_to(moment, reported.shape), rtol=0,
+                               atol=1e-9 * 2 * 9.81)
+    assert np.all(result.output("lock") == 0.0)  # nothing can lock it
 
 
 @pytest.mark.parametrize("joint", ["hinge h joins ground.origin to arm.root { axis = (0, 0, 1) }",
