@@ -41,6 +41,9 @@ class SymbolicSystem:
     # orientations: codegen/spatial.py), each a step of its own computed from p and the
     # ones before it at the start of every generated function that uses it
     constants: tuple[Group, ...]
+    # a spatial model's hinges' vectors, S, C and their rates named while deriving
+    # (SpatialKinematics.hinge_derivatives): steps of q, qd and the constants, in order
+    hinge_steps: tuple[Group, ...]
     coordinates: tuple[str, ...]  # NQ names, e.g. "yoke.phi"
     q: tuple[sympy.Symbol, ...]
     qd: tuple[sympy.Symbol, ...]
@@ -180,10 +183,12 @@ def derive(model: ir.Model) -> SymbolicSystem:
     thetas = column([kin.hinge_theta(i) for i in range(len(model.hinges))]
                     + [kin.slider_s(i) for i in sliding])
     if model.spatial:
-        hinge_jacobian, hinge_gamma = _spatial_hinge_derivatives(model, kin, thetas, symbols)
+        hinge_jacobian, angles, rates, hinge_gamma = _spatial_hinge_derivatives(
+            model, kin, thetas, symbols)
     else:
         hinge_jacobian = jacobian(thetas, q)
         hinge_gamma = acceleration_rhs(thetas, hinge_jacobian, symbols)
+        angles, rates = thetas, times(hinge_jacobian, symbols.qd)
     loads = derive_loads(model, kin, mass, list(thetas), hinge_jacobian)
     run_values = run_value_names(model, loads.dissipator_names)
     w = tuple(sympy.Symbol(f"@w{i}") for i in range(len(run_values)))
@@ -197,6 +202,8 @@ def derive(model: ir.Model) -> SymbolicSystem:
     system = SymbolicSystem(
         name=model.name,
         constants=tuple(((symbol, value),) for symbol, value in constants.items()),
+        hinge_steps=tuple(group for index in sorted(getattr(kin, "hinge_steps", {}))
+                          for group in kin.hinge_steps[index]),
         coordinates=symbols.names, q=q, qd=symbols.qd, p=symbols.p, t=t,
         mass_matrix=mass, mass_pattern=_pattern(mass),
         constraint_names=tuple(row.name for row in rows),
@@ -209,7 +216,7 @@ def derive(model: ir.Model) -> SymbolicSystem:
         hinge_names=tuple(h.name for h in model.hinges)
         + tuple(model.sliders[i].name for i in sliding),
         slider_names=tuple(s.name for s in model.sliders),
-        hinge_angles=thetas, hinge_rates=times(hinge_jacobian, symbols.qd),
+        hinge_angles=angles, hinge_rates=rates,
         hinge_jacobian=hinge_jacobian, hinge_jacobian_pattern=_pattern(hinge_jacobian),
         hinge_gamma=hinge_gamma,
         hinge_properties=_hinge_properties(model, kin),
@@ -334,20 +341,25 @@ def _hinge_properties(model: ir.Model, kin: Kinematics) -> ImmutableMatrix:
 
 def _spatial_hinge_derivatives(model: ir.Model, kin, thetas: ImmutableMatrix,
                                symbols: Coordinates
-                               ) -> tuple[ImmutableSparseMatrix, ImmutableMatrix]:
-    """d theta/dq and -(d theta/dq qd)_q qd of a spatial model's hinge entries: a hinge's
-    from its turn written out (SpatialKinematics.hinge_derivatives), a slider's displacement,
-    bilinear in q, differentiated as it is."""
+                               ) -> tuple[ImmutableSparseMatrix, ImmutableMatrix,
+                                          ImmutableMatrix, ImmutableMatrix]:
+    """d theta/dq, theta, theta' and -(d theta/dq qd)_q qd of a spatial model's hinge
+    entries: a hinge's from its turn written out over named steps
+    (SpatialKinematics.hinge_derivatives), a slider's displacement, bilinear in q,
+    differentiated as it is."""
     nh = len(model.hinges)
     parts = [kin.hinge_derivatives(i) for i in range(nh)]
-    entries = {(i, j): value for i, (gradient, _) in enumerate(parts)
+    entries = {(i, j): value for i, (gradient, *_) in enumerate(parts)
                for j, value in gradient.items()}
     displacements = column(thetas[nh:])
     slider_jacobian = jacobian(displacements, symbols.q)
     entries.update({(nh + i, j): value for (i, j), value in slider_jacobian.todok().items()})
-    gammas = [gamma for _, gamma in parts] \
+    angles = [theta for _, theta, _, _ in parts] + list(displacements)
+    rates = [rate for _, _, rate, _ in parts] + list(times(slider_jacobian, symbols.qd))
+    gammas = [gamma for *_, gamma in parts] \
         + list(acceleration_rhs(displacements, slider_jacobian, symbols))
-    return ImmutableSparseMatrix(thetas.rows, len(symbols.q), entries), column(gammas)
+    return (ImmutableSparseMatrix(thetas.rows, len(symbols.q), entries), column(angles),
+            column(rates), column(gammas))
 
 
 def _mass_matrix(model: ir.Model, kin: Kinematics) -> ImmutableSparseMatrix:
