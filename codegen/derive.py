@@ -156,6 +156,56 @@ def acceleration_rhs(vector: ImmutableMatrix, vector_q: ImmutableSparseMatrix,
                            - 2 * times(vector_q.diff(t), qd) - vector.diff(t, 2))
 
 
+def second_rate(expr: sympy.Expr, rates: dict[sympy.Symbol, sympy.Symbol]
+                ) -> tuple[sympy.Expr, sympy.Expr]:
+    """(V', V'') of V(q) along q(t) = q + t qd (qdd = 0), by the sum and product rules on V's
+    tree (`rates`: q -> qd): for V without t, V'' = (V_q qd)_q qd, so -V'' is V's gamma.
+    A spatial model's rows are sums of products of coordinates and constants (bilinear or
+    quadratic in q): a product's V'' is its factors' pairwise products of rates (the
+    hinge axis row (R_B a) . (R_A e) gives 2 (R_B' a) . (R_A' e)), where differentiating
+    V_q qd again writes out every term of the row twice. Any other node (a function of q)
+    is differentiated as it is."""
+    zero = sympy.Integer(0)
+    if expr in rates:
+        return rates[expr], zero
+    if not expr.free_symbols & rates.keys():
+        return zero, zero
+    if expr.is_Add:
+        parts = [second_rate(term, rates) for term in expr.args]
+        return sympy.Add(*(d for d, _ in parts)), sympy.Add(*(dd for _, dd in parts))
+    if expr.is_Mul:
+        factors = expr.args
+        parts = [second_rate(factor, rates) for factor in factors]
+        moving = [k for k, (d, _) in enumerate(parts) if d != 0]
+
+        def others(*left_out: int) -> list[sympy.Expr]:
+            return [f for k, f in enumerate(factors) if k not in left_out]
+
+        first = sympy.Add(*(sympy.Mul(parts[k][0], *others(k)) for k in moving))
+        second = sympy.Add(*(sympy.Mul(parts[k][1], *others(k)) for k in moving
+                             if parts[k][1] != 0),
+                           *(2 * sympy.Mul(parts[k][0], parts[l][0], *others(k, l))
+                             for a, k in enumerate(moving) for l in moving[a + 1:]))
+        return first, second
+    if expr.is_Pow and expr.exp.is_Integer and expr.exp > 1:
+        base, n = expr.base, expr.exp
+        d, dd = second_rate(base, rates)
+        return n * base**(n - 1) * d, n * (n - 1) * base**(n - 2) * d**2 + n * base**(n - 1) * dd
+    present = sorted(expr.free_symbols & rates.keys(), key=lambda s: s.name)
+    first = sympy.Add(*(expr.diff(s) * rates[s] for s in present))
+    return first, sympy.Add(*(first.diff(s) * rates[s] for s in present))
+
+
+def _rows_gamma(phi: ImmutableMatrix, phi_q: ImmutableSparseMatrix,
+                symbols: Coordinates, spatial: bool) -> ImmutableMatrix:
+    """gamma of the rows: a spatial model's rows without t by second_rate, every other
+    model's by acceleration_rhs."""
+    if not spatial or phi.has(symbols.t):
+        return acceleration_rhs(phi, phi_q, symbols)
+    rates = dict(zip(symbols.q, symbols.qd))
+    return column(-second_rate(row, rates)[1] for row in phi)
+
+
 def derive(model: ir.Model) -> SymbolicSystem:
     """Derive the symbolic system of a checked model (parameters stay symbols)."""
     symbols, beams = build_coordinates(model)
@@ -212,7 +262,7 @@ def derive(model: ir.Model) -> SymbolicSystem:
         constraint_sliders=tuple(row.slider for row in rows),
         phi=phi, phi_q=phi_q, phi_q_pattern=_pattern(phi_q), lam=lam,
         phi_q_entries=entries, phi_q_lam=phi_q_lam, phi_t=phi_t,
-        gamma=acceleration_rhs(phi, phi_q, symbols), force=column(loads.force),
+        gamma=_rows_gamma(phi, phi_q, symbols, model.spatial), force=column(loads.force),
         hinge_names=tuple(h.name for h in model.hinges)
         + tuple(model.sliders[i].name for i in sliding),
         slider_names=tuple(s.name for s in model.sliders),
