@@ -41,6 +41,9 @@ class SymbolicSystem:
     # orientations: codegen/spatial.py), each a step of its own computed from p and the
     # ones before it at the start of every generated function that uses it
     constants: tuple[Group, ...]
+    # a spatial model's hinges' vectors, S, C and their rates named while deriving
+    # (SpatialKinematics.hinge_derivatives): steps of q, qd and the constants, in order
+    hinge_steps: tuple[Group, ...]
     coordinates: tuple[str, ...]  # NQ names, e.g. "yoke.phi"
     q: tuple[sympy.Symbol, ...]
     qd: tuple[sympy.Symbol, ...]
@@ -153,6 +156,56 @@ def acceleration_rhs(vector: ImmutableMatrix, vector_q: ImmutableSparseMatrix,
                            - 2 * times(vector_q.diff(t), qd) - vector.diff(t, 2))
 
 
+def second_rate(expr: sympy.Expr, rates: dict[sympy.Symbol, sympy.Symbol]
+                ) -> tuple[sympy.Expr, sympy.Expr]:
+    """(V', V'') of V(q) along q(t) = q + t qd (qdd = 0), by the sum and product rules on V's
+    tree (`rates`: q -> qd): for V without t, V'' = (V_q qd)_q qd, so -V'' is V's gamma.
+    A spatial model's rows are sums of products of coordinates and constants (bilinear or
+    quadratic in q): a product's V'' is its factors' pairwise products of rates (the
+    hinge axis row (R_B a) . (R_A e) gives 2 (R_B' a) . (R_A' e)), where differentiating
+    V_q qd again writes out every term of the row twice. Any other node (a function of q)
+    is differentiated as it is."""
+    zero = sympy.Integer(0)
+    if expr in rates:
+        return rates[expr], zero
+    if not expr.free_symbols & rates.keys():
+        return zero, zero
+    if expr.is_Add:
+        parts = [second_rate(term, rates) for term in expr.args]
+        return sympy.Add(*(d for d, _ in parts)), sympy.Add(*(dd for _, dd in parts))
+    if expr.is_Mul:
+        factors = expr.args
+        parts = [second_rate(factor, rates) for factor in factors]
+        moving = [k for k, (d, _) in enumerate(parts) if d != 0]
+
+        def others(*left_out: int) -> list[sympy.Expr]:
+            return [f for k, f in enumerate(factors) if k not in left_out]
+
+        first = sympy.Add(*(sympy.Mul(parts[k][0], *others(k)) for k in moving))
+        second = sympy.Add(*(sympy.Mul(parts[k][1], *others(k)) for k in moving
+                             if parts[k][1] != 0),
+                           *(2 * sympy.Mul(parts[k][0], parts[l][0], *others(k, l))
+                             for a, k in enumerate(moving) for l in moving[a + 1:]))
+        return first, second
+    if expr.is_Pow and expr.exp.is_Integer and expr.exp > 1:
+        base, n = expr.base, expr.exp
+        d, dd = second_rate(base, rates)
+        return n * base**(n - 1) * d, n * (n - 1) * base**(n - 2) * d**2 + n * base**(n - 1) * dd
+    present = sorted(expr.free_symbols & rates.keys(), key=lambda s: s.name)
+    first = sympy.Add(*(expr.diff(s) * rates[s] for s in present))
+    return first, sympy.Add(*(first.diff(s) * rates[s] for s in present))
+
+
+def _rows_gamma(phi: ImmutableMatrix, phi_q: ImmutableSparseMatrix,
+                symbols: Coordinates, spatial: bool) -> ImmutableMatrix:
+    """gamma of the rows: a spatial model's rows without t by second_rate, every other
+    model's by acceleration_rhs."""
+    if not spatial or phi.has(symbols.t):
+        return acceleration_rhs(phi, phi_q, symbols)
+    rates = dict(zip(symbols.q, symbols.qd))
+    return column(-second_rate(row, rates)[1] for row in phi)
+
+
 def derive(model: ir.Model) -> SymbolicSystem:
     """Derive the symbolic system of a checked model (parameters stay symbols)."""
     symbols, beams = build_coordinates(model)
@@ -180,10 +233,12 @@ def derive(model: ir.Model) -> SymbolicSystem:
     thetas = column([kin.hinge_theta(i) for i in range(len(model.hinges))]
                     + [kin.slider_s(i) for i in sliding])
     if model.spatial:
-        hinge_jacobian, hinge_gamma = _spatial_hinge_derivatives(model, kin, thetas, symbols)
+        hinge_jacobian, angles, rates, hinge_gamma = _spatial_hinge_derivatives(
+            model, kin, thetas, symbols)
     else:
         hinge_jacobian = jacobian(thetas, q)
         hinge_gamma = acceleration_rhs(thetas, hinge_jacobian, symbols)
+        angles, rates = thetas, times(hinge_jacobian, symbols.qd)
     loads = derive_loads(model, kin, mass, list(thetas), hinge_jacobian)
     run_values = run_value_names(model, loads.dissipator_names)
     w = tuple(sympy.Symbol(f"@w{i}") for i in range(len(run_values)))
@@ -197,6 +252,8 @@ def derive(model: ir.Model) -> SymbolicSystem:
     system = SymbolicSystem(
         name=model.name,
         constants=tuple(((symbol, value),) for symbol, value in constants.items()),
+        hinge_steps=tuple(group for index in sorted(getattr(kin, "hinge_steps", {}))
+                          for group in kin.hinge_steps[index]),
         coordinates=symbols.names, q=q, qd=symbols.qd, p=symbols.p, t=t,
         mass_matrix=mass, mass_pattern=_pattern(mass),
         constraint_names=tuple(row.name for row in rows),
@@ -205,11 +262,11 @@ def derive(model: ir.Model) -> SymbolicSystem:
         constraint_sliders=tuple(row.slider for row in rows),
         phi=phi, phi_q=phi_q, phi_q_pattern=_pattern(phi_q), lam=lam,
         phi_q_entries=entries, phi_q_lam=phi_q_lam, phi_t=phi_t,
-        gamma=acceleration_rhs(phi, phi_q, symbols), force=column(loads.force),
+        gamma=_rows_gamma(phi, phi_q, symbols, model.spatial), force=column(loads.force),
         hinge_names=tuple(h.name for h in model.hinges)
         + tuple(model.sliders[i].name for i in sliding),
         slider_names=tuple(s.name for s in model.sliders),
-        hinge_angles=thetas, hinge_rates=times(hinge_jacobian, symbols.qd),
+        hinge_angles=angles, hinge_rates=rates,
         hinge_jacobian=hinge_jacobian, hinge_jacobian_pattern=_pattern(hinge_jacobian),
         hinge_gamma=hinge_gamma,
         hinge_properties=_hinge_properties(model, kin),
@@ -334,20 +391,25 @@ def _hinge_properties(model: ir.Model, kin: Kinematics) -> ImmutableMatrix:
 
 def _spatial_hinge_derivatives(model: ir.Model, kin, thetas: ImmutableMatrix,
                                symbols: Coordinates
-                               ) -> tuple[ImmutableSparseMatrix, ImmutableMatrix]:
-    """d theta/dq and -(d theta/dq qd)_q qd of a spatial model's hinge entries: a hinge's
-    from its turn written out (SpatialKinematics.hinge_derivatives), a slider's displacement,
-    bilinear in q, differentiated as it is."""
+                               ) -> tuple[ImmutableSparseMatrix, ImmutableMatrix,
+                                          ImmutableMatrix, ImmutableMatrix]:
+    """d theta/dq, theta, theta' and -(d theta/dq qd)_q qd of a spatial model's hinge
+    entries: a hinge's from its turn written out over named steps
+    (SpatialKinematics.hinge_derivatives), a slider's displacement, bilinear in q,
+    differentiated as it is."""
     nh = len(model.hinges)
     parts = [kin.hinge_derivatives(i) for i in range(nh)]
-    entries = {(i, j): value for i, (gradient, _) in enumerate(parts)
+    entries = {(i, j): value for i, (gradient, *_) in enumerate(parts)
                for j, value in gradient.items()}
     displacements = column(thetas[nh:])
     slider_jacobian = jacobian(displacements, symbols.q)
     entries.update({(nh + i, j): value for (i, j), value in slider_jacobian.todok().items()})
-    gammas = [gamma for _, gamma in parts] \
+    angles = [theta for _, theta, _, _ in parts] + list(displacements)
+    rates = [rate for _, _, rate, _ in parts] + list(times(slider_jacobian, symbols.qd))
+    gammas = [gamma for *_, gamma in parts] \
         + list(acceleration_rhs(displacements, slider_jacobian, symbols))
-    return ImmutableSparseMatrix(thetas.rows, len(symbols.q), entries), column(gammas)
+    return (ImmutableSparseMatrix(thetas.rows, len(symbols.q), entries), column(angles),
+            column(rates), column(gammas))
 
 
 def _mass_matrix(model: ir.Model, kin: Kinematics) -> ImmutableSparseMatrix:

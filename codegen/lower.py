@@ -175,7 +175,8 @@ def lower_function(system: SymbolicSystem, spec: FunctionSpec,
               for (i, j), value in sorted(found.items()) if value != 0]
     exprs = [entries[r][i, j] for r, i, j in places]
     names = sympy.numbered_symbols("x")
-    program, exprs = _program(system.constants + spec.steps, exprs, names)
+    program, exprs = _program(system.constants + system.hinge_steps + spec.steps,
+                              exprs, names)
     definitions, reduced = sympy.cse(exprs, symbols=names)
     definitions, reduced = _split_sums(program + definitions, reduced, names)
     inputs = slots(system, spec.args)

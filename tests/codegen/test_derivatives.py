@@ -136,7 +136,9 @@ def test_module_matches_sympy(compiled):
     values = dict(zip(system.q, s.q)) | dict(zip(system.qd, s.qd)) | dict(zip(system.p, s.p)) \
         | dict(zip(system.lam, s.lam)) | dict(zip(system.w, s.w))
     values[system.t] = s.t
-    for group in system.constants:  # named constant geometry, each of p and those before it
+    # named constant geometry, each of p and those before it; then the spatial hinges' named
+    # vectors and turn parts, of q, qd and those before them
+    for group in system.constants + system.hinge_steps:
         for symbol, value in group:
             values[symbol] = value.xreplace(values).evalf()
 
