@@ -25,7 +25,12 @@ NAMES = ("pendulum", "slider_crank", "fourbar", "intelsat5", "two_link_flex", "a
 # Round-off on another machine moves the two flexible links' elastic tip, whose stiff modes
 # the linearly implicit step damps, by up to 90 tol (the core built with -mfma): tip2
 # 8.7e-7 m at tol 1e-8. Those runs are compared at ten times that.
-FACTORS = {"two_link_flex": 1000.0}
+# reflector_arm's shoulder latch is compliant and separates and meets again between 20.4 and
+# 21.5 s: round-off moves those contacts, and the angles after them by up to 18 tol (an order
+# of operations changed in the generated code: 1.8e-7 rad at tol 1e-8); compared at 100 tol.
+FACTORS = {"two_link_flex": 1000.0, "reflector_arm": 100.0}
+# Its peak shoulder force, sampled at those contacts, moves by 1.1e4 tol of itself there.
+PEAKS = {"reflector_arm": 1e5}
 # The spatial examples' joint loads go through compliant latches' contacts, whose times move
 # with the steps: they are compared as the peak loads are (stored_outputs.output_differences;
 # the core built with -mfma moves reflector_arm's by 5.3e-4 N, 4e3 tol of its 13 N).
@@ -67,6 +72,7 @@ def test_the_example_is_what_it_was(name, runs, same_arithmetic, monkeypatch):
         assert summary == reference
         return
     monkeypatch.setattr(stored_outputs, "FACTOR", FACTORS.get(name, stored_outputs.FACTOR))
+    monkeypatch.setattr(stored_outputs, "PEAK", PEAKS.get(name, stored_outputs.PEAK))
     tol = reference["tolerances"]["tol"]
     assert stored_outputs.output_differences(text, reference_text, tol,
                                              LOADS.get(name, ())) == []
