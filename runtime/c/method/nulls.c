@@ -51,21 +51,26 @@ static double rayleigh_share(const dep_multipliers *mp, int nc, const double *n)
 {
     const dep_envelope *e = &mp->envelope;
     double form = 0.0, sizes = 0.0;
-    for (int a = 0; a < nc; ++a) {
-        int i = mp->schur_envelope && mp->permuted ? mp->rank[a] : a;
-        for (int b = 0; b < nc; ++b) {
-            int k = mp->schur_envelope && mp->permuted ? mp->rank[b] : b;
-            double value;
-            if (!mp->schur_envelope) {
-                value = mp->S[a * nc + b];
-            } else {
-                int row = i > k ? i : k, col = i > k ? k : i;
-                value = col >= e->first[row] ? DEP_ENVELOPE_AT(e, e->A, row, col) : 0.0;
+    if (!mp->schur_envelope) {
+        for (int a = 0; a < nc; ++a) {
+            for (int b = 0; b < nc; ++b) {
+                form += n[a] * mp->S[a * nc + b] * n[b];
             }
-            form += n[a] * value * n[b];
+            sizes += n[a] * n[a] * mp->S[a * nc + a];
         }
-        sizes += n[a] * n[a] * (mp->schur_envelope ? DEP_ENVELOPE_AT(e, e->A, i, i)
-                                                   : mp->S[a * nc + a]);
+        return sizes > 0.0 ? fabs(form) / sizes : 0.0;
+    }
+    double *own = mp->permuted_in; /* n in the factor's order */
+    for (int a = 0; a < nc; ++a) {
+        own[mp->permuted ? mp->rank[a] : a] = n[a];
+    }
+    for (int i = 0; i < nc; ++i) { /* the envelope holds S's lower triangle */
+        double diagonal = DEP_ENVELOPE_AT(e, e->A, i, i), off = 0.0;
+        for (int k = e->first[i]; k < i; ++k) {
+            off += DEP_ENVELOPE_AT(e, e->A, i, k) * own[k];
+        }
+        form += own[i] * (diagonal * own[i] + 2.0 * off);
+        sizes += own[i] * own[i] * diagonal;
     }
     return sizes > 0.0 ? fabs(form) / sizes : 0.0;
 }
@@ -128,9 +133,13 @@ static int find_nulls(dep_multipliers *mp, int nc)
                 n[a] = own[mp->rank[a]];
             }
         }
-        if (pivot != 0.0 && rayleigh_share(mp, nc, n) <= RANK_ROUNDOFF) {
+        double closing = pivot != 0.0 ? rayleigh_share(mp, nc, n) : 0.0;
+        if (pivot != 0.0 && closing <= RANK_ROUNDOFF) {
             mp->forced[j] = 1; /* the row is a combination of the rows before it */
             return 1;
+        }
+        if (!(closing <= RANK_SCREEN * mp->rank_drop)) {
+            continue; /* far from a weak combination: one inverse iteration does not reach */
         }
         if (pivot != 0.0) { /* a weak row: S n ~ pivot n; one inverse iteration makes n the
                                eigenvector of S's smallest eigenvalue (apart from the null
