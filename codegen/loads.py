@@ -217,25 +217,19 @@ def _potentials(model: ir.Model, kin: Kinematics,
                 thetas: list[sympy.Expr]) -> list[tuple[str, sympy.Expr]]:
     """(name, V) of each potential, in the order of the ENERGIES contract."""
     terms = []
-    for hinge, theta in zip(model.hinges, thetas):
-        if hinge.stiffness is None and hinge.preload is None:
-            continue
+    def sprung(joint) -> bool:
+        return joint.stiffness is not None or joint.preload is not None
+
+    joints = [(hinge, theta) for hinge, theta in zip(model.hinges, thetas) if sprung(hinge)]
+    joints += [(slider, kin.slider_s(index)) for index, slider in enumerate(model.sliders)
+               if sprung(slider)]
+    for joint, x in joints:  # V = stiffness x^2 / 2 - preload x, x the angle or s
         energy = sympy.Integer(0)
-        if hinge.preload is not None:
-            energy -= kin.const(hinge.preload) * theta
-        if hinge.stiffness is not None:
-            energy += kin.const(hinge.stiffness) * theta**2 / 2
-        terms.append((f"spring.{hinge.name}", energy))
-    for index, slider in enumerate(model.sliders):  # V = stiffness s^2 / 2 - preload s
-        if slider.stiffness is None and slider.preload is None:
-            continue
-        s = kin.slider_s(index)
-        energy = sympy.Integer(0)
-        if slider.preload is not None:
-            energy -= kin.const(slider.preload) * s
-        if slider.stiffness is not None:
-            energy += kin.const(slider.stiffness) * s**2 / 2
-        terms.append((f"spring.{slider.name}", energy))
+        if joint.preload is not None:
+            energy -= kin.const(joint.preload) * x
+        if joint.stiffness is not None:
+            energy += kin.const(joint.stiffness) * x**2 / 2
+        terms.append((f"spring.{joint.name}", energy))
     for cable in model.cables:
         stretch = sympy.Add(*(kin.const(term.coefficient) * thetas[term.hinge]
                               for term in cable.terms))

@@ -1,5 +1,5 @@
 """Helpers for the runtime tests: hand-made modules (tests/runtime/models), variants, the
-exact pendulum period."""
+exact pendulum period, model text compiled, a spatial body's rotation matrices."""
 
 import importlib.util
 import types
@@ -7,6 +7,8 @@ from pathlib import Path
 
 import numpy as np
 from scipy.special import ellipk
+
+import depsim
 
 MODELS = Path(__file__).parent / "models"
 
@@ -35,3 +37,17 @@ def pendulum_period(p) -> float:
     return 4 * np.sqrt(J_O / (m * g * d)) * ellipk(k * k)  # scipy's ellipk takes m = k^2
 
 
+
+
+def compile_text(tmp_path, name: str, text: str, target: str = "c"):
+    """Model text written to tmp_path/<name>.dep, compiled for `target`."""
+    path = tmp_path / f"{name}.dep"
+    path.write_text(text)
+    return depsim.load(path).compile(target, out_dir=tmp_path / f"{name}_{target}")
+
+
+def rotations(result, body: str) -> np.ndarray:
+    """A spatial body's rotation matrices R (n, 3, 3) at the output times."""
+    names = result.coordinate_names
+    columns = [names.index(f"{body}.R{i}{j}") for i in "123" for j in "123"]
+    return result.q[:, columns].reshape(-1, 3, 3)

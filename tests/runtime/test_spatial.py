@@ -21,14 +21,9 @@ from references.spatial import (bennett_geometry, bennett_output_angle, heavy_to
                                 lagrange_top_steady_precession,
                                 lagrange_top_steady_state, rot, skewed_double_pendulum,
                                 torque_free)
+from runtime_helpers import compile_text, rotations
 
 G = (0.0, 0.0, -9.81)
-
-
-def compile_text(tmp_path, name: str, text: str, target: str = "c"):
-    path = tmp_path / f"{name}.dep"
-    path.write_text(text)
-    return depsim.load(path).compile(target, out_dir=tmp_path / f"{name}_{target}")
 
 
 def vector(values) -> str:
@@ -40,12 +35,6 @@ def turns(R) -> str:
     b = -math.asin(max(-1.0, min(1.0, R[2, 0])))
     a, c = math.atan2(R[1, 0], R[0, 0]), math.atan2(R[2, 1], R[2, 2])
     return f"rz({float(a)!r} rad) * ry({float(b)!r} rad) * rx({float(c)!r} rad)"
-
-
-def rotations(result, body: str) -> np.ndarray:
-    names = result.coordinate_names
-    columns = [names.index(f"{body}.R{i}{j}") for i in "123" for j in "123"]
-    return result.q[:, columns].reshape(-1, 3, 3)
 
 
 # -- a double pendulum with skewed hinge axes ------------------------------------------------

@@ -14,7 +14,8 @@ import math
 import numpy as np
 import pytest
 
-import depsim
+from references.spatial import rot
+from runtime_helpers import compile_text, rotations
 
 BETA = 30.0  # deg, the angle between the shafts
 
@@ -48,24 +49,6 @@ output energy = system.energy
 """
 
 
-def compile_text(tmp_path, name: str, text: str, target: str = "c"):
-    path = tmp_path / f"{name}.dep"
-    path.write_text(text)
-    return depsim.load(path).compile(target, out_dir=tmp_path / f"{name}_{target}")
-
-
-def rotations(result, body: str) -> np.ndarray:
-    names = result.coordinate_names
-    columns = [names.index(f"{body}.R{i}{j}") for i in "123" for j in "123"]
-    return result.q[:, columns].reshape(-1, 3, 3)
-
-
-def rodrigues(axis, angle) -> np.ndarray:
-    axis = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
-    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
-    return np.eye(3) + math.sin(angle) * k + (1 - math.cos(angle)) * k @ k
-
-
 def wrapped(angle: np.ndarray) -> np.ndarray:
     return np.angle(np.exp(1j * angle))
 
@@ -95,9 +78,9 @@ def test_a_universal_joints_angles_rebuild_the_output_shafts_orientation(cardan)
     """R_B = R_A Rot(a, angle_a) Rot(R0 b, angle_b) R0 (docs/language.md): the two angles the
     joint reports, put through that definition, give shaft2's rotation matrix."""
     R1, R2 = rotations(cardan, "shaft1"), rotations(cardan, "shaft2")
-    R0 = rodrigues((0, 0, 1), math.radians(BETA))  # shaft1 starts in the world's orientation
+    R0 = rot((0, 0, 1), math.radians(BETA))  # shaft1 starts in the world's orientation
     a, b_in_a = np.array([0.0, 0, 1]), R0 @ np.array([0.0, 1, 0])
-    rebuilt = np.array([r1 @ rodrigues(a, ta) @ rodrigues(b_in_a, tb) @ R0 for r1, ta, tb
+    rebuilt = np.array([r1 @ rot(a, ta) @ rot(b_in_a, tb) @ R0 for r1, ta, tb
                         in zip(R1, cardan.output("angle_a"), cardan.output("angle_b"))])
     assert np.max(np.abs(rebuilt - R2)) < 1e-9  # definitions: round-off of the angles' atan2
     assert np.ptp(cardan.output("angle_b")) > 0.1  # the cross-piece rocks

@@ -345,6 +345,8 @@ void dep_pass_magnitude(dep_multipliers *mp, const double *J, int nc, const doub
 /* The null vectors of the factor dep_schur_form left, one per dropped row and weak
    combination (up to DEP_NULL_MAX), orthonormal, into mp->nulls; their count (nulls.c). */
 int dep_schur_nulls(dep_multipliers *mp, int nc);
+/* x (nc) less its parts along the null vectors mp->nulls (orthonormal). */
+void dep_schur_deflate(const dep_multipliers *mp, int nc, double *x);
 /* The factor of the S at hand again, dropping the rows mp->forced; 1 when factored. */
 int dep_schur_refactor(dep_multipliers *mp, int nc);
 /* x = S^-1 b for the rows J (nc x nq) with identity jacobian_id; 1 when solved. */

@@ -65,8 +65,6 @@ void dep_pass_magnitude(dep_multipliers *mp, const double *J, int nc, const doub
     }
 }
 
-static void deflate(const dep_multipliers *mp, int nc, double *x);
-
 /* max_i |v_i| / size_i, the error in units of each row's size (NaN kept); the row in *row.
    With null vectors n of S at hand (a singular position, redundant rows: dep_schur_nulls), v
    less its part along them, n (n . v): no multiplier reaches that part (docs/method.md, 2). */
@@ -84,7 +82,7 @@ static double relative_error(const dep_multipliers *mp, const dep_measurement *m
 {
     double worst = 0.0, *v = mp->range;
     memcpy(v, m->v, (size_t)nc * sizeof *v);
-    deflate(mp, nc, v);
+    dep_schur_deflate(mp, nc, v);
     *row = 0;
     for (int i = 0; i < nc; ++i) {
         double a = fabs(v[i]), r = a == 0.0 ? 0.0 : a / m->size[i];
@@ -156,21 +154,6 @@ static void report_error(dep_pass_report *report, double error)
     }
 }
 
-/* x less its parts along S's null vectors (mp->nulls). */
-static void deflate(const dep_multipliers *mp, int nc, double *x)
-{
-    for (int k = 0; k < mp->n_nulls; ++k) {
-        const double *n = mp->nulls + (size_t)k * (size_t)nc;
-        double dot = 0.0;
-        for (int i = 0; i < nc; ++i) {
-            dot += n[i] * x[i];
-        }
-        for (int i = 0; i < nc; ++i) {
-            x[i] -= dot * n[i];
-        }
-    }
-}
-
 /* out = K v (transposed: K^T v): S^-1 v / C by S's factor for `allowed` (dep_schur_form) and
    the pass's secant corrections u_k z_k^T; 0 when S could not be solved. */
 static int step_for(dep_multipliers *mp, const dep_measurement *current, int nc, double C,
@@ -182,11 +165,11 @@ static int step_for(dep_multipliers *mp, const dep_measurement *current, int nc,
     if (v != out) {
         memcpy(out, v, (size_t)nc * sizeof *out);
     }
-    deflate(mp, nc, out);
+    dep_schur_deflate(mp, nc, out);
     if (!dep_schur_solve_formed(mp, current->J, nc, out, out, &report->cg_iterations)) {
         return 0;
     }
-    deflate(mp, nc, out);
+    dep_schur_deflate(mp, nc, out);
     for (int i = 0; i < nc; ++i) {
         out[i] /= C;
     }
@@ -261,7 +244,7 @@ static int update(dep_multipliers *mp, const double *lam, int nc, dep_measure_fu
         for (int i = 0; i < nc; ++i) {
             mp->trial_lam[i] = lam[i] - mp->step[i];
         }
-        deflate(mp, nc, mp->trial_lam); /* the minimum-norm multipliers */
+        dep_schur_deflate(mp, nc, mp->trial_lam); /* the minimum-norm multipliers */
         measure(context, mp->trial_lam, 0, trial);
         *trial_error = relative_error(mp, trial, nc, &row);
         decreased = *trial_error < error;

@@ -75,21 +75,26 @@ static double rayleigh_share(const dep_multipliers *mp, int nc, const double *n)
     return sizes > 0.0 ? fabs(form) / sizes : 0.0;
 }
 
+void dep_schur_deflate(const dep_multipliers *mp, int nc, double *x)
+{
+    for (int k = 0; k < mp->n_nulls; ++k) {
+        const double *n = mp->nulls + (size_t)k * (size_t)nc;
+        double dot = 0.0;
+        for (int i = 0; i < nc; ++i) {
+            dot += n[i] * x[i];
+        }
+        for (int i = 0; i < nc; ++i) {
+            x[i] -= dot * n[i];
+        }
+    }
+}
+
 /* n less its parts along the null vectors found (Gram-Schmidt, twice), of unit length; 0
    when nothing is left. */
 static int orthonormal(const dep_multipliers *mp, int nc, double *n)
 {
     for (int pass = 0; pass < 2; ++pass) {
-        for (int k = 0; k < mp->n_nulls; ++k) {
-            const double *m = mp->nulls + (size_t)k * (size_t)nc;
-            double dot = 0.0;
-            for (int a = 0; a < nc; ++a) {
-                dot += m[a] * n[a];
-            }
-            for (int a = 0; a < nc; ++a) {
-                n[a] -= dot * m[a];
-            }
-        }
+        dep_schur_deflate(mp, nc, n);
         double norm = 0.0;
         for (int a = 0; a < nc; ++a) {
             norm += n[a] * n[a];
