@@ -15,7 +15,7 @@ from __future__ import annotations
 from depsim.dsl.attributes import SPECS
 from depsim.dsl.limits import LIMIT_KINDS
 from depsim.runtime.interface import (ABI, FUNCTIONS, IDENTITY, SETTINGS, SIZES, TABLES,
-                                      c_declaration)
+                                      TANGENT_FLAG, TANGENTS, c_declaration)
 
 HEAD = """\
 /* depsim_model.h: what the integrator needs from a model. GENERATED from
@@ -79,6 +79,8 @@ def render_header() -> str:
     lines += [f"    const char *{field};" for field, _ in IDENTITY]
     lines += ["", "    /* sizes */"]
     lines += [f"    int {s.field}; /* {s.meaning} */" for s in SIZES]
+    lines += [f"    int {TANGENT_FLAG}; /* 1: the tangent functions below are generated, 0: they "
+              "are NULL */"]
     lines += ["", "    /* tables (NULL when empty) */"]
     for t in TABLES:
         ctype = t.ctype.replace("const char *const", "const char *const *").replace(
@@ -89,6 +91,11 @@ def render_header() -> str:
               "    double " + ", ".join(f for f, _ in SETTINGS) + ";", "",
               "    /* functions (docs/generated-module.md) */"]
     for f in FUNCTIONS:
+        lines.append(f"    /* {f.summary} */")
+        lines.append(f"    void (*{f.name})({c_declaration(f)});")
+    lines += ["", "    /* tangents (docs/generated-module.md): NULL unless the model was compiled "
+              "with them */"]
+    for f in TANGENTS:
         lines.append(f"    /* {f.summary} */")
         lines.append(f"    void (*{f.name})({c_declaration(f)});")
     lines += ["} dep_model;", "", "#endif /* DEPSIM_MODEL_H */", ""]

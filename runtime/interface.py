@@ -16,7 +16,8 @@ rates; lam holds NC multipliers (the constraint rows' forces); w holds the NW ru
 output may use, which the integrator keeps (RUN_VALUES: each hinge's lock torque, nan while
 free, then each slider entry's lock force, docs/language.md, slider; the work each of the model's dissipators removed; the work of friction, of compliant
 latches and of impacts; the compliant latches' potential energy). Matrices are row-major. A
-function writes every entry of its results (zeros included).
+function writes every entry of its results (zeros included). A tangent function (TANGENTS,
+generated on request) also takes a direction d<x> of the length of x for each argument x but t.
 """
 
 from __future__ import annotations
@@ -25,9 +26,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-ABI = 12  # DEP_MODEL_ABI: bumped whenever the dep_model struct changes
+ABI = 13  # DEP_MODEL_ABI: bumped whenever the dep_model struct changes
 
-ARGUMENTS = ("v", "vd", "q", "qd", "t", "p", "lam", "w")  # each function takes a subsequence
+VALUES = ("v", "vd", "q", "qd", "t", "p", "lam", "w")  # the arguments of the model's state
+# The direction of each value but t (same length): d<value>, along which a tangent
+# differentiates (TANGENTS).
+DIRECTIONS = tuple(f"d{name}" for name in VALUES if name != "t")
+ARGUMENTS = VALUES + DIRECTIONS  # each function takes a subsequence, in this order
 
 
 @dataclass(frozen=True, slots=True)
@@ -218,10 +223,58 @@ FUNCTIONS = (
 
 FUNCTION_NAMES = tuple(f.name for f in FUNCTIONS)
 
-# Every name a NumPy module must define (docs/generated-module.md).
-MODULE_CONSTANTS = tuple(dict.fromkeys(
-    [c for _, c in IDENTITY] + [s.constant for s in SIZES[:3]] + [t.constant for t in TABLES]
-    + [c for _, c in SETTINGS]))
+
+# ---- tangents (forward sensitivities) -------------------------------------------------------
+# A tangent of a function F(x_1, ..., t, ...) is d/de F(x_1 + e dx_1, ..., t, ...) at e = 0:
+# its directional derivative along directions dx of every argument but t. A model has them
+# only when compiled with `tangents=True` (all of them or none: check_module); in dep_model
+# they follow the functions, NULL when not generated, and `tangents` is 1 when they are.
+
+TANGENT_FLAG = "tangents"  # the dep_model field: 1 when the model has TANGENTS, else 0
+
+# The functions with a tangent, and a note on what theirs gives beyond the derivative.
+TANGENT_BASES = {
+    "mass_matrix": "", "tree_values": "", "tree_pose": "", "tree_tangent": "",
+    "loop_targets": "; 0 where the base is nan (not given)",
+    "phi": "", "phi_q": "", "phi_t": "", "gamma": "", "force": "", "hinge_angles": "",
+    "hinge_rates": "", "hinge_jacobian": "", "hinge_gamma": "",
+    "hinge_properties": "; 0 where the base is nan (a property not given)",
+    "outputs": "; with IEEE arithmetic, as outputs (nan or inf outside a function's domain)",
+}
+
+
+def direction(argument: str) -> str:
+    """The direction argument of a value argument: `q` -> `dq`."""
+    assert argument in VALUES and argument != "t", argument
+    return f"d{argument}"
+
+
+def tangent_name(name: str) -> str:
+    """The tangent function's name of a base function: `phi` -> `phi_tangent`."""
+    return f"{name}_tangent"
+
+
+def _shape_text(output: Output) -> str:
+    return "(" + ", ".join(s.upper() for s in output.shape) + ("," if len(output.shape) == 1
+                                                                else "") + ")"
+
+
+def tangent(function: Function) -> Function:
+    """The tangent of a base function: its arguments, then the directions of all but t; its
+    results' shapes, each named d<name>; a summary saying what it computes."""
+    varied = tuple(a for a in function.args if a != "t")
+    moved = ", ".join(a if a == "t" else f"{a} + e {direction(a)}" for a in function.args)
+    results = tuple(Output(f"d{r.name}", r.shape) for r in function.results)
+    if len(results) == 1:
+        shapes = f"shape {_shape_text(results[0])}"
+    else:
+        shapes = "shapes " + ", ".join(f"{r.name} {_shape_text(r)}" for r in results)
+    where = (f": values at ({', '.join(PATTERNS[function.name][:2])})"
+             if function.name in PATTERNS else "")
+    return Function(tangent_name(function.name),
+                    function.args + tuple(direction(a) for a in varied), results,
+                    f"d/de {function.name}({moved}) at e = 0{where}, {shapes}"
+                    f"{TANGENT_BASES[function.name]}.")
 
 
 # The functions returning a sparse matrix's values at its pattern: (rows table, columns table,
@@ -229,6 +282,14 @@ MODULE_CONSTANTS = tuple(dict.fromkeys(
 PATTERNS = {"phi_q": ("PHI_Q_ROWS", "PHI_Q_COLS", "CONSTRAINTS"),
             "hinge_jacobian": ("HINGE_JACOBIAN_ROWS", "HINGE_JACOBIAN_COLS", "HINGES"),
             "mass_matrix": ("MASS_ROWS", "MASS_COLS", "COORDINATES")}
+
+TANGENTS = tuple(tangent(f) for f in FUNCTIONS if f.name in TANGENT_BASES)
+TANGENT_NAMES = tuple(f.name for f in TANGENTS)
+
+# Every name a NumPy module must define (docs/generated-module.md).
+MODULE_CONSTANTS = tuple(dict.fromkeys(
+    [c for _, c in IDENTITY] + [s.constant for s in SIZES[:3]] + [t.constant for t in TABLES]
+    + [c for _, c in SETTINGS]))
 
 
 def dense(module, function: str, *args) -> np.ndarray:
@@ -261,21 +322,32 @@ def outputs_at(module, q, qd, t: float, p, lam=None, w=None) -> np.ndarray:
 
 def check_module(module) -> None:
     """Raise TypeError naming what a module lacks of the interface (a programming error
-    upstream: generated modules have everything)."""
+    upstream: generated modules have everything): every constant and base function, and
+    all of TANGENTS or none."""
     optional = {"DESCRIPTION"}
     missing = [name for name in MODULE_CONSTANTS + FUNCTION_NAMES
                if name not in optional and not hasattr(module, name)]
     if missing:
         raise TypeError(f"{module!r} is not a depsim model module: missing "
                         + ", ".join(missing) + " (see docs/generated-module.md)")
+    has_tangents(module)
+
+
+def has_tangents(module) -> bool:
+    """Whether a module has the tangent functions (TANGENTS: a model compiled with
+    tangents=True); TypeError when it has some but not all."""
+    present = [name for name in TANGENT_NAMES if hasattr(module, name)]
+    if present and len(present) < len(TANGENT_NAMES):
+        missing = [name for name in TANGENT_NAMES if name not in present]
+        raise TypeError(f"{module!r} has some tangent functions but not all: missing "
+                        + ", ".join(missing) + " (see docs/generated-module.md)")
+    return bool(present)
 
 
 # ---- the C header ----------------------------------------------------------------------------
 
-_C_ARGUMENTS = {"v": "const double *v", "vd": "const double *vd", "q": "const double *q",
-                "qd": "const double *qd",
-                "t": "double t", "p": "const double *p", "lam": "const double *lam",
-                "w": "const double *w"}
+_C_ARGUMENTS = {name: "double t" if name == "t" else f"const double *{name}"
+                for name in ARGUMENTS}
 
 
 def c_declaration(function: Function, restrict: bool = False) -> str:

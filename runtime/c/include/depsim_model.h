@@ -12,7 +12,7 @@
 #ifndef DEPSIM_MODEL_H
 #define DEPSIM_MODEL_H
 
-#define DEP_MODEL_ABI 12 /* bumped whenever this struct changes */
+#define DEP_MODEL_ABI 13 /* bumped whenever this struct changes */
 
 /* The columns of hinge_properties (HINGE_PROPERTIES): the hinge attributes the
    integrator applies itself (docs/language.md, hinge), SI; nan where not given. */
@@ -81,6 +81,7 @@ typedef struct dep_model {
     int nsys; /* the system's quantities of system_state */
     int nlim; /* range checks of the parameters (the model text's) */
     int nlimp; /* (range check, parameter) pairs it depends on */
+    int tangents; /* 1: the tangent functions below are generated, 0: they are NULL */
 
     /* tables (NULL when empty) */
     const char *const *coordinate_names; /* nq */
@@ -171,6 +172,40 @@ typedef struct dep_model {
     void (*stiffness)(const double *q, const double *p, double *K, double *D);
     /* Each range check's value and its bound (kinds below and at_least; else 0). */
     void (*parameter_checks)(const double *p, double *value, double *bound);
+
+    /* tangents (docs/generated-module.md): NULL unless the model was compiled with them */
+    /* d/de mass_matrix(p + e dp) at e = 0: values at (MASS_ROWS, MASS_COLS), shape (NMZ,). */
+    void (*mass_matrix_tangent)(const double *p, const double *dp, double *dM);
+    /* d/de tree_values(p + e dp) at e = 0, shapes dv0 (NV,), dvd0 (NV,). */
+    void (*tree_values_tangent)(const double *p, const double *dp, double *dv0, double *dvd0);
+    /* d/de tree_pose(v + e dv, p + e dp) at e = 0, shape (NQ,). */
+    void (*tree_pose_tangent)(const double *v, const double *p, const double *dv, const double *dp, double *dq);
+    /* d/de tree_tangent(v + e dv, vd + e dvd, p + e dp) at e = 0, shape (NQ,). */
+    void (*tree_tangent_tangent)(const double *v, const double *vd, const double *p, const double *dv, const double *dvd, const double *dp, double *dqd);
+    /* d/de loop_targets(p + e dp) at e = 0, shapes dangle (NH,), drate (NH,); 0 where the base is nan (not given). */
+    void (*loop_targets_tangent)(const double *p, const double *dp, double *dangle, double *drate);
+    /* d/de phi(q + e dq, t, p + e dp) at e = 0, shape (NC,). */
+    void (*phi_tangent)(const double *q, double t, const double *p, const double *dq, const double *dp, double *dphi);
+    /* d/de phi_q(q + e dq, t, p + e dp) at e = 0: values at (PHI_Q_ROWS, PHI_Q_COLS), shape (NNZ,). */
+    void (*phi_q_tangent)(const double *q, double t, const double *p, const double *dq, const double *dp, double *dphi_q);
+    /* d/de phi_t(q + e dq, t, p + e dp) at e = 0, shape (NC,). */
+    void (*phi_t_tangent)(const double *q, double t, const double *p, const double *dq, const double *dp, double *dphi_t);
+    /* d/de gamma(q + e dq, qd + e dqd, t, p + e dp) at e = 0, shape (NC,). */
+    void (*gamma_tangent)(const double *q, const double *qd, double t, const double *p, const double *dq, const double *dqd, const double *dp, double *dgamma);
+    /* d/de force(q + e dq, qd + e dqd, t, p + e dp) at e = 0, shape (NQ,). */
+    void (*force_tangent)(const double *q, const double *qd, double t, const double *p, const double *dq, const double *dqd, const double *dp, double *df);
+    /* d/de hinge_angles(q + e dq, p + e dp) at e = 0, shape (NH,). */
+    void (*hinge_angles_tangent)(const double *q, const double *p, const double *dq, const double *dp, double *dtheta);
+    /* d/de hinge_rates(q + e dq, qd + e dqd, p + e dp) at e = 0, shape (NH,). */
+    void (*hinge_rates_tangent)(const double *q, const double *qd, const double *p, const double *dq, const double *dqd, const double *dp, double *dtheta_rate);
+    /* d/de hinge_jacobian(q + e dq, p + e dp) at e = 0: values at (HINGE_JACOBIAN_ROWS, HINGE_JACOBIAN_COLS), shape (NHNZ,). */
+    void (*hinge_jacobian_tangent)(const double *q, const double *p, const double *dq, const double *dp, double *dJ);
+    /* d/de hinge_gamma(q + e dq, qd + e dqd, p + e dp) at e = 0, shape (NH,). */
+    void (*hinge_gamma_tangent)(const double *q, const double *qd, const double *p, const double *dq, const double *dqd, const double *dp, double *dgamma_h);
+    /* d/de hinge_properties(p + e dp) at e = 0, shape (NH, NHP); 0 where the base is nan (a property not given). */
+    void (*hinge_properties_tangent)(const double *p, const double *dp, double *dH);
+    /* d/de outputs(q + e dq, qd + e dqd, t, p + e dp, lam + e dlam, w + e dw) at e = 0, shape (NOUT,); with IEEE arithmetic, as outputs (nan or inf outside a function's domain). */
+    void (*outputs_tangent)(const double *q, const double *qd, double t, const double *p, const double *lam, const double *w, const double *dq, const double *dqd, const double *dp, const double *dlam, const double *dw, double *dy);
 } dep_model;
 
 #endif /* DEPSIM_MODEL_H */
