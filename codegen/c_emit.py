@@ -41,7 +41,7 @@ GENERATED_FILES = ("model.c", "model.h", "Makefile")
 # length, and separate files compile in parallel (`make -j`, and depsim's own builds). Small
 # models keep everything in model.c.
 OWN_FILE_CHARS = 50_000
-_INTERFACE = {f.name: f for f in interface.FUNCTIONS}
+_INTERFACE = {f.name: f for f in interface.FUNCTIONS + interface.TANGENTS}
 PROGRAM = "main.c"  # the program's entry point in the folder, left out of the library
 # The program's files in the folder (main.c and those only it uses), left out of the library.
 PROGRAM_FILES = tuple(Path(name).name for name in PROGRAM_SOURCES)
@@ -110,7 +110,7 @@ class CTable:
 class CModuleView:
     m: ModuleView
     stem: str  # program and library name
-    sizes: tuple[tuple[str, int], ...]  # (dep_model field, value)
+    sizes: tuple[tuple[str, int], ...]  # (dep_model field, value), the tangents flag last
     tables: tuple[CTable, ...]
     functions: tuple[CFunction, ...]
     files: tuple[CFile, ...]  # model.c, then model_<name>.c for each long function
@@ -171,7 +171,9 @@ def c_view(view: ModuleView, runtime_files: tuple[str, ...]) -> CModuleView:
     """The C target's view-model of a lowered module; `runtime_files`: the integrator's file
     names in the folder (core_folder_files)."""
     m = view
-    sizes = tuple((field, value) for field, _, value in m.sizes)
+    # the sizes, then the flag saying whether the tangents are there (dep_model.tangents)
+    sizes = tuple((field, value) for field, _, value in m.sizes) + (
+        (interface.TANGENT_FLAG, int(m.tangents)),)
     functions = tuple(c_function(f) for f in m.functions)
     long = tuple(f for f in functions if f.length > OWN_FILE_CHARS)
     files = (CFile("model.c", tuple(f for f in functions if f not in long), True),) + tuple(
@@ -186,17 +188,21 @@ def c_view(view: ModuleView, runtime_files: tuple[str, ...]) -> CModuleView:
                        sources, tuple(f.name[:-2] + ".o" for f in files), program, headers)
 
 
-def c_sources(model: ir.Model, system: SymbolicSystem | None = None) -> dict[str, str]:
+def c_sources(model: ir.Model, system: SymbolicSystem | None = None,
+              tangents: bool = False) -> dict[str, str]:
     """The generated files of the C target (model.c, any model_<name>.c, model.h, Makefile)
-    as text; no file written. The integrator's sources (runtime/c) are not included."""
-    return c_target(model, system)[1]
+    as text; no file written. The integrator's sources (runtime/c) are not included.
+    `tangents`: with the tangent functions (interface.TANGENTS; else their fields are NULL)."""
+    return c_target(model, system, tangents)[1]
 
 
-def c_target(model: ir.Model, system: SymbolicSystem | None = None
+def c_target(model: ir.Model, system: SymbolicSystem | None = None, tangents: bool = False
              ) -> tuple[ModuleView, dict[str, str]]:
     """The lowered module (its sizes, tables and identity, for targets that wrap the C model:
-    codegen.fmu) and the generated files of `c_sources`, from one lowering."""
-    view = lower_module(model, system or derive(model), CPrinter, DEPSIM_VERSION)
+    codegen.fmu, which never asks for tangents) and the generated files of `c_sources`, from
+    one lowering."""
+    view = lower_module(model, system or derive(model), CPrinter, DEPSIM_VERSION,
+                        tangents=tangents)
     c = c_view(view, tuple(core_folder_files()))
     files = {name: C_ENVIRONMENT.get_template(f"c/{name}.j2").render(
                  c=c, m=view, cflags=" ".join(CFLAGS), model_cflags=" ".join(MODEL_EXTRA_CFLAGS))
@@ -206,10 +212,13 @@ def c_target(model: ir.Model, system: SymbolicSystem | None = None
     return view, files
 
 
-def compile_c(model: ir.Model, out_dir: Path, system: SymbolicSystem | None = None) -> Path:
+def compile_c(model: ir.Model, out_dir: Path, system: SymbolicSystem | None = None,
+              tangents: bool = False) -> Path:
     """Write the C target's folder for `model` into `out_dir` (created if needed): generated
     model.c/model.h, the integrator's sources, a Makefile. Returns `out_dir`.
     `system`: an already derived SymbolicSystem of the model, to skip derivation.
+    `tangents`: with the tangent functions (interface.TANGENTS; about twice the C to
+    compile), which forward sensitivities need; the standalone program never uses them.
     Build with `make -C out_dir` (program `<name>`, library `lib<name>.so`) or
     `depsim.runtime.clib.build_library(out_dir)`."""
     out_dir = Path(out_dir)
@@ -217,7 +226,7 @@ def compile_c(model: ir.Model, out_dir: Path, system: SymbolicSystem | None = No
     for name, source in core_folder_files().items():
         (out_dir / name).parent.mkdir(parents=True, exist_ok=True)
         _write_if_changed(out_dir / name, source.read_text(encoding="utf-8"))
-    for name, text in c_sources(model, system).items():
+    for name, text in c_sources(model, system, tangents).items():
         _write_if_changed(out_dir / name, text)
     return out_dir
 

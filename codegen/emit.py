@@ -47,10 +47,12 @@ def render_numpy(view: ModuleView) -> str:
     return ENVIRONMENT.get_template("numpy_module.py.j2").render(m=view)
 
 
-def numpy_source(model: ir.Model, system: SymbolicSystem | None = None) -> str:
-    """A model's NumPy module source (derived here unless `system` is given); no file written."""
+def numpy_source(model: ir.Model, system: SymbolicSystem | None = None,
+                 tangents: bool = False) -> str:
+    """A model's NumPy module source (derived here unless `system` is given); no file written.
+    `tangents`: with the tangent functions too (docs/generated-module.md, Tangents)."""
     view = lower_module(model, system or derive(model), PythonPrinter, DEPSIM_VERSION,
-                        ieee_printer=IeeePrinter)
+                        ieee_printer=IeeePrinter, tangents=tangents)
     return render_numpy(view)
 
 
@@ -67,14 +69,16 @@ def module_file_stem(name: str) -> str:
     return f"{re.sub(r'[^A-Za-z0-9_]', '_', name)[:MAX_FILE_STEM - 13]}_{digest}"
 
 
-def compile_numpy(model: ir.Model, out_dir: Path, system: SymbolicSystem | None = None) -> Path:
+def compile_numpy(model: ir.Model, out_dir: Path, system: SymbolicSystem | None = None,
+                  tangents: bool = False) -> Path:
     """Write `out_dir/<model name>.py` (`module_file_stem`), the model's standalone NumPy
     module; return its path. `system`: an already derived SymbolicSystem of the model, to
-    skip derivation."""
+    skip derivation. `tangents`: with the tangent functions (interface.TANGENTS), which
+    forward sensitivities need; without them by default."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     path = out_dir / f"{module_file_stem(model.name)}.py"
-    path.write_text(numpy_source(model, system), encoding="utf-8", newline="\n")
+    path.write_text(numpy_source(model, system, tangents), encoding="utf-8", newline="\n")
     return path
 
 

@@ -20,6 +20,7 @@ from depsim.runtime import interface
 from .assembly import Group
 from .derive import SymbolicSystem, column
 from .printing import LoweringError, SlotPrinter
+from .tangent import as_groups, direction, needed_steps, tangent_program
 
 PrinterFactory = Callable[..., SlotPrinter]  # (slots, temporaries) -> printer
 
@@ -103,7 +104,8 @@ class ModuleView:
     t_end: float
     tol: float
     dt_out: float
-    functions: tuple[FunctionView, ...]
+    functions: tuple[FunctionView, ...]  # FUNCTIONS, then TANGENTS when generated
+    tangents: bool = False  # whether functions hold interface.TANGENTS
 
 
 @dataclass(frozen=True)
@@ -115,12 +117,16 @@ class FunctionSpec:
     summary: str
     results: tuple[tuple[str, sympy.MatrixBase], ...]
     flatten: bool = True  # (n, 1) columns become 1-d arrays
-    steps: tuple[Group, ...] = ()  # symbols defined in order before the results (a program)
+    # symbols defined in order before the results (a program): the system's constants and
+    # hinge steps, then the function's own
+    steps: tuple[Group, ...] = ()
 
 
-def function_specs(system: SymbolicSystem) -> tuple[FunctionSpec, ...]:
+def function_specs(system: SymbolicSystem, tangents: bool = False
+                   ) -> tuple[FunctionSpec, ...]:
     """The model functions of the interface (depsim.runtime.interface.FUNCTIONS: names,
-    arguments, results, summaries), each with the system's matrices for its results."""
+    arguments, results, summaries), each with the system's matrices for its results; then,
+    with `tangents`, those of interface.TANGENTS (tangent_spec)."""
     s = system
     q, qd = column(s.q), column(s.qd)
     placed = tuple(g for pair in zip(s.tree_pose, s.tree_tangent) for g in pair)
@@ -141,17 +147,50 @@ def function_specs(system: SymbolicSystem) -> tuple[FunctionSpec, ...]:
         "stiffness": (s.stiffness, s.stiffness_damping),
         "parameter_checks": (s.limit_values, s.limit_bounds),
     }
-    return tuple(FunctionSpec(f.name, f.args, f.summary,
-                              tuple((r.name, m) for r, m in zip(f.results, matrices[f.name])),
-                              flatten=len(f.results[0].shape) == 1,
-                              steps=steps.get(f.name, ()))
-                 for f in interface.FUNCTIONS)
+    prelude = s.constants + s.hinge_steps
+    specs = tuple(FunctionSpec(f.name, f.args, f.summary,
+                               tuple((r.name, m) for r, m in zip(f.results, matrices[f.name])),
+                               flatten=len(f.results[0].shape) == 1,
+                               steps=prelude + steps.get(f.name, ()))
+                  for f in interface.FUNCTIONS)
+    if not tangents:
+        return specs
+    bases = {spec.name: spec for spec in specs}
+    return specs + tuple(tangent_spec(system, bases[f.name]) for f in interface.FUNCTIONS
+                         if f.name in interface.TANGENT_BASES)
+
+
+def tangent_spec(system: SymbolicSystem, base: FunctionSpec) -> FunctionSpec:
+    """The tangent of a base function (interface.tangent): its program differentiated
+    forward along the directions of its inputs but t (tangent.tangent_program)."""
+    function = interface.tangent(next(f for f in interface.FUNCTIONS if f.name == base.name))
+    inputs = [x for x in slots(system, base.args) if x != system.t]
+    places = [(k, i, j) for k, (_, matrix) in enumerate(base.results)
+              for (i, j), value in sorted(matrix.todok().items()) if value != 0]
+    # the base as the straight-line program it is lowered to (its steps, then one CSE of its
+    # results), so that every expression differentiated is a few terms ('#' keeps these
+    # names apart from the model's; lowering the tangent renames them)
+    names = sympy.numbered_symbols("#b")
+    steps, exprs = _program(base.steps, [base.results[k][1][i, j] for k, i, j in places],
+                            names)
+    definitions, reduced = sympy.cse(exprs, symbols=names)
+    program, changes = tangent_program(as_groups(steps + definitions), inputs, reduced)
+    entries: list[dict] = [{} for _ in base.results]
+    for (k, i, j), change in zip(places, changes):
+        entries[k][(i, j)] = change
+    results = tuple((r.name, sympy.ImmutableSparseMatrix(m.rows, m.cols, found))
+                    for r, (_, m), found in zip(function.results, base.results, entries))
+    return FunctionSpec(function.name, function.args, function.summary, results,
+                        base.flatten, program)
 
 
 def slots(system: SymbolicSystem, args: tuple[str, ...]) -> dict[sympy.Symbol, str]:
-    """Input symbol -> array slot text (`q[3]`, `p[7]`, `t`) for a function's arguments."""
+    """Input symbol -> array slot text (`q[3]`, `p[7]`, `t`, `dq[3]`) for a function's
+    arguments; a direction's symbols are tangent.direction of its value's."""
     arrays = {"v": system.v, "vd": system.vd, "q": system.q, "qd": system.qd, "p": system.p,
               "lam": system.lam, "w": system.w}
+    arrays.update({interface.direction(name): tuple(map(direction, symbols))
+                   for name, symbols in arrays.items()})
     table = {system.t: "t"} if "t" in args else {}
     for name in args:
         table.update({s: f"{name}[{i}]" for i, s in enumerate(arrays.get(name, ()))})
@@ -162,7 +201,7 @@ def slots(system: SymbolicSystem, args: tuple[str, ...]) -> dict[sympy.Symbol, s
 # a function's domain (sqrt of a negative number, log 0, a division by a state passing zero)
 # is nan or inf in every target, as C computes it, and never an exception. The runtime warns
 # about non-finite outputs (docs/language.md, outputs).
-IEEE_FUNCTIONS = ("outputs",)
+IEEE_FUNCTIONS = ("outputs", interface.tangent_name("outputs"))
 
 
 def lower_function(system: SymbolicSystem, spec: FunctionSpec,
@@ -175,8 +214,7 @@ def lower_function(system: SymbolicSystem, spec: FunctionSpec,
               for (i, j), value in sorted(found.items()) if value != 0]
     exprs = [entries[r][i, j] for r, i, j in places]
     names = sympy.numbered_symbols("x")
-    program, exprs = _program(system.constants + system.hinge_steps + spec.steps,
-                              exprs, names)
+    program, exprs = _program(spec.steps, exprs, names)
     definitions, reduced = sympy.cse(exprs, symbols=names)
     definitions, reduced = _split_sums(program + definitions, reduced, names)
     inputs = slots(system, spec.args)
@@ -234,14 +272,7 @@ def _program(steps: tuple[Group, ...], exprs: list[sympy.Expr], names
     gathers consecutive groups while none refers to a symbol defined in it, so each member's
     few terms share their sines and cosines with its neighbours' without one CSE over the
     whole tree."""
-    needed = set().union(*(e.free_symbols for e in exprs))
-    kept: list[Group] = []
-    for group in reversed(steps):  # only what the results need, so no C variable is unused
-        group = tuple(step for step in group if step[0] in needed)
-        if group:
-            kept.append(group)
-            needed |= set().union(*(value.free_symbols for _, value in group))
-    kept.reverse()
+    kept = needed_steps(steps, exprs)  # only what the results need: no C variable unused
     rename: dict[sympy.Symbol, sympy.Expr] = {}
     steps_named = sympy.numbered_symbols("s")
     temporaries: list[tuple[sympy.Symbol, sympy.Expr]] = []
@@ -335,9 +366,11 @@ def _limit_tables(model: ir.Model) -> dict[str, tuple]:
 
 
 def lower_module(model: ir.Model, system: SymbolicSystem, printer: PrinterFactory,
-                 depsim_version: str, ieee_printer: PrinterFactory | None = None) -> ModuleView:
+                 depsim_version: str, ieee_printer: PrinterFactory | None = None,
+                 tangents: bool = False) -> ModuleView:
     """The whole module's view-model: header constants and every function (those of
-    IEEE_FUNCTIONS printed by `ieee_printer` when the backend's own printer is not IEEE)."""
+    IEEE_FUNCTIONS printed by `ieee_printer` when the backend's own printer is not IEEE),
+    with `tangents` also the tangent functions (interface.TANGENTS)."""
     rows, cols = zip(*system.phi_q_pattern) if system.phi_q_pattern else ((), ())
     values = {
         "COORDINATES": system.coordinates, "PARAMETERS": tuple(p.name for p in model.params),
@@ -379,5 +412,6 @@ def lower_module(model: ir.Model, system: SymbolicSystem, printer: PrinterFactor
         t_end=model.simulation.t_end, tol=model.simulation.tol, dt_out=model.simulation.dt_out,
         functions=tuple(lower_function(system, spec, ieee_printer if ieee_printer is not None
                                        and spec.name in IEEE_FUNCTIONS else printer)
-                        for spec in function_specs(system)),
+                        for spec in function_specs(system, tangents)),
+        tangents=tangents,
     )
