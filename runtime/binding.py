@@ -9,6 +9,11 @@ the module's functions (cffi callbacks), so the same compiled core integrates it
     binding = bind(module)        # a NumPy module or a CModule
     binding.pointer               # the `dep_model *` for dep_simulate
     binding.module                # module-like: NQ, PARAMETERS, phi(q, t, p), ...
+    binding.tangents              # whether the model has the tangent functions (TANGENTS)
+
+A model compiled with tangents has the functions of interface.TANGENTS as well: a CModule
+offers them like the others, and a NumPy module's binding fills their pointers and sets
+`dep_model.tangents` to 1; without them the pointers stay NULL and the flag 0.
 
 An exception raised by a NumPy module's function cannot cross the C core: the callback fills
 its results with NaN and keeps the exception (`binding.failure`), the run stops at the next
@@ -70,7 +75,8 @@ class CModule:
             setattr(self, table.constant, tuple(read(values[i]) for i in range(count)))
         for field, constant in interface.SETTINGS:
             setattr(self, constant, float(getattr(m, field)))
-        for function in interface.FUNCTIONS:
+        self.tangents = bool(getattr(m, interface.TANGENT_FLAG))
+        for function in interface.FUNCTIONS + (interface.TANGENTS if self.tangents else ()):
             setattr(self, function.name, self._wrap(function))
 
     @property
@@ -84,6 +90,7 @@ class CModule:
         c_function = getattr(self.pointer, function.name)
         lengths = {"v": self.sizes["nv"], "vd": self.sizes["nv"], "q": self.NQ, "qd": self.NQ,
                    "p": self.NP, "lam": self.NC, "w": self.sizes["nw"]}
+        lengths.update({interface.direction(name): n for name, n in lengths.items()})
         shapes = [tuple(self.sizes[s] for s in r.shape) for r in function.results]
         view = ffi()
 
@@ -178,8 +185,12 @@ class NumpyModel:
             setattr(m, table.field, self._table(table, values))
         for field, constant in interface.SETTINGS:
             setattr(m, field, float(getattr(module, constant)))
-        self.functions = {f.name: getattr(module, f.name) for f in interface.FUNCTIONS}
-        for function in interface.FUNCTIONS:
+        # the tangents when the module has them (all: check_module), else NULL and 0
+        self.tangents = interface.has_tangents(module)
+        setattr(m, interface.TANGENT_FLAG, int(self.tangents))
+        functions = interface.FUNCTIONS + (interface.TANGENTS if self.tangents else ())
+        self.functions = {f.name: getattr(module, f.name) for f in functions}
+        for function in functions:
             setattr(m, function.name, self._own(self._callback(function)))
 
     @property
@@ -222,8 +233,9 @@ class NumpyModel:
         return self._own(view.new(ctype, list(values)))
 
     def _arguments(self, function: interface.Function):
-        """values -> the module's arguments: q, qd as lists of floats, t as is, p as the
-        run's parameter list (converted once per run: the core passes one p throughout)."""
+        """values -> the module's arguments: q, qd (and the other arrays, directions included)
+        as lists of floats, t as is, p as the run's parameter list (converted once per run:
+        the core passes one p throughout)."""
         unpack, state = ffi().unpack, self._state
         nq, nv, nc, nw = (self.sizes[k] for k in ("nq", "nv", "nc", "nw"))
 
@@ -232,10 +244,14 @@ class NumpyModel:
                 state.p_pointer, state.p_list = pointer, unpack(pointer, self.sizes["np"])
             return state.p_list
 
+        lengths = {"v": nv, "vd": nv, "q": nq, "qd": nq, "p": self.sizes["np"], "lam": nc,
+                   "w": nw}
         converters = {"v": lambda c: unpack(c, nv), "vd": lambda c: unpack(c, nv),
                       "q": lambda c: unpack(c, nq),
                       "qd": lambda c: unpack(c, nq), "t": None, "p": parameters,
                       "lam": lambda c: unpack(c, nc), "w": lambda c: unpack(c, nw)}
+        converters.update({interface.direction(name): lambda c, n=n: unpack(c, n)
+                           for name, n in lengths.items()})  # a direction: a fresh list
         steps = tuple(converters[name] for name in function.args)
         return lambda values: [c if s is None else s(c) for s, c in zip(steps, values)]
 
