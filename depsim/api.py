@@ -54,13 +54,16 @@ class Model:
         except ValueError as exc:
             raise UsageError(f"--elements: {exc}") from None
 
-    def compile(self, target: str = "numpy", out_dir: str | os.PathLike | None = None) -> Simulator:
+    def compile(self, target: str = "numpy", out_dir: str | os.PathLike | None = None,
+                tangents: bool = False) -> Simulator:
         """Generate code for `target` and load it: "numpy" (a Python module) or "c" (a C
         folder whose model is built into a shared library). Either runs on the integrator
         core (built once per cache). The code is generated into `out_dir`, else into the
         user cache (`generated_code`), keyed by the model text's hash, its file name, the
-        element counts and depsim's version, and taken from there without deriving anything
-        the next time (`Simulator.cached`); the C build is cached by compiler and flags."""
+        element counts, depsim's version and `tangents`, and taken from there without
+        deriving anything the next time (`Simulator.cached`); the C build is cached by
+        compiler and flags. `tangents`: generate the tangent functions too (forward
+        sensitivities, docs/generated-module.md, Tangents; about twice the code)."""
         if target == "fmu":
             raise UsageError("an FMU is not run from Python: write it with "
                              "Model.export_fmu(path) (docs/fmu.md)")
@@ -70,38 +73,39 @@ class Model:
 
         core()  # the integrator: built once per cache; CBuildError without a C compiler
         if out_dir is not None:
-            return Simulator(self, _generate(self.ir, target, Path(out_dir)), target)
-        artifact, reused = self.generated_code(target)
+            return Simulator(self, _generate(self.ir, target, Path(out_dir), tangents), target)
+        artifact, reused = self.generated_code(target, tangents)
         folder = artifact.parent if artifact.is_file() else artifact
         return Simulator(self, _load(target, artifact), target,
                          cached=folder if reused else None)
 
-    def generated_code(self, target: str) -> tuple[Path, bool]:
-        """The model's generated code for `target` in the cache (a NumPy module's file, a C
-        target's folder), derived and emitted unless it is there already; and whether it
-        was (then nothing was derived)."""
-        artifact = self.cached_code(target)
+    def generated_code(self, target: str, tangents: bool = False) -> tuple[Path, bool]:
+        """The model's generated code for `target` (with the tangent functions when
+        `tangents`) in the cache (a NumPy module's file, a C target's folder), derived and
+        emitted unless it is there already; and whether it was (then nothing was
+        derived)."""
+        artifact = self.cached_code(target, tangents)
         if artifact is not None:
             return artifact, True
-        directory, key = _cache_dir(self.ir, target)
+        directory, key = _cache_dir(self.ir, target, tangents)
         if target == "c":
             from depsim.codegen import compile_c
 
-            artifact = compile_c(self.ir, directory)
+            artifact = compile_c(self.ir, directory, tangents=tangents)
         else:
             from depsim.codegen import compile_numpy
 
-            artifact = compile_numpy(self.ir, directory)
+            artifact = compile_numpy(self.ir, directory, tangents=tangents)
         _write_atomic(directory / CACHE_STAMP,
                       f"{key}\n{artifact.name if artifact != directory else '.'}")
         return artifact.resolve(), False
 
-    def cached_code(self, target: str) -> Path | None:
-        """The code `compile(target)` generated before for this model text, file name,
-        element counts and depsim version (a NumPy module's file, a C target's folder), or
-        None. Taking it does no symbolic work. The stamp naming it is written last, so a
-        half-written entry is never taken."""
-        directory, key = _cache_dir(self.ir, target)
+    def cached_code(self, target: str, tangents: bool = False) -> Path | None:
+        """The code `compile(target, tangents=tangents)` generated before for this model
+        text, file name, element counts and depsim version (a NumPy module's file, a C
+        target's folder), or None. Taking it does no symbolic work. The stamp naming it is
+        written last, so a half-written entry is never taken."""
+        directory, key = _cache_dir(self.ir, target, tangents)
         stamp = directory / CACHE_STAMP
         found = stamp.read_text(encoding="utf-8").split("\n") if stamp.is_file() else []
         if len(found) == 2 and found[0] == key and (directory / found[1]).exists():
@@ -120,18 +124,19 @@ class Model:
 CACHE_STAMP = "depsim-generated"  # in a cached folder: its key, then the artifact's name
 
 
-def _cache_dir(model: ir.Model, target: str) -> tuple[Path, str]:
+def _cache_dir(model: ir.Model, target: str, tangents: bool = False) -> tuple[Path, str]:
     """The cache folder of the model's generated code and its key: the model text's hash,
     its file name (in the generated header), the element counts, depsim's version, the code
-    generator itself (its sources and templates: a changed generator never reuses old code)
-    and the target. Parameters never enter it: one generated module serves every parameter
-    set."""
+    generator itself (its sources and templates: a changed generator never reuses old code),
+    the target and whether it has the tangent functions. Parameters never enter it: one
+    generated module serves every parameter set."""
     from depsim.runtime.core import cache_root
 
     elements = ",".join(f"{b.name}={b.elements}" for b in model.beams)
     source = model.source_file.replace("\\", "/").rsplit("/", 1)[-1]
     key = hashlib.sha256(f"{model.source_sha256}|{source}|{elements}|{__version__}|"
-                         f"{_generator_digest()}|{target}".encode()).hexdigest()
+                         f"{_generator_digest()}|{target}|tangents={int(tangents)}".encode()
+                         ).hexdigest()
     return cache_root() / "models" / f"{model.name}-{key[:16]}", key
 
 
@@ -158,16 +163,17 @@ def _generator_digest() -> str:
     return digest.hexdigest()
 
 
-def _generate(model: ir.Model, target: str, directory: Path):
-    """Derive and emit the model's code into `directory` (not the cache); the module."""
+def _generate(model: ir.Model, target: str, directory: Path, tangents: bool = False):
+    """Derive and emit the model's code (with the tangent functions when `tangents`) into
+    `directory` (not the cache); the module."""
     if target == "c":
         from depsim.codegen import compile_c
         from depsim.runtime.binding import load_folder
 
-        return load_folder(compile_c(model, directory))
+        return load_folder(compile_c(model, directory, tangents=tangents))
     from depsim.codegen import compile_numpy, load_generated
 
-    return load_generated(compile_numpy(model, directory))
+    return load_generated(compile_numpy(model, directory, tangents=tangents))
 
 
 def _load(target: str, path: Path):
