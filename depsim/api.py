@@ -202,6 +202,7 @@ class Simulator:
         self.module = module
         self.target = target
         self.cached = cached  # the cache folder its code was reused from, or None
+        self._tangents = None  # the module with tangent functions, once sensitivities ran
         self.parameter_names: tuple[str, ...] = tuple(module.PARAMETERS)
         self.defaults = np.array(module.PARAMETER_DEFAULTS, dtype=float)
 
@@ -242,11 +243,15 @@ class Simulator:
 
     def run(self, set: Mapping[str, float | str] | None = None, t_end: float | None = None,
             dt_out: float | None = None, tol: float | None = None, progress: bool = False,
-            max_steps: float | None = None, inputs=None, stepping: str = "auto"):
+            max_steps: float | None = None, inputs=None, stepping: str = "auto",
+            sensitivities=()):
         """Simulate with parameters `set` applied; returns a `depsim.runtime.Result`.
         max_steps: the most steps the run may take (default 1e6; docs/method.md, 6);
         inputs: {input: time table as rows (t, u) in SI, or one number} (docs/api.md);
-        stepping: "auto", "explicit" or "implicit" (docs/method.md, 10)."""
+        stepping: "auto", "explicit" or "implicit" (docs/method.md, 10); sensitivities:
+        parameter names whose forward sensitivities to follow (`Result.sensitivities`,
+        docs/calibration.md): the model's code with its tangent functions is generated the
+        first time they are asked for (then cached)."""
         from depsim.runtime import simulate
 
         for name in inputs or {}:  # a table sets the input's value and rate over time
@@ -254,9 +259,22 @@ class Simulator:
                 if given in (set or {}):
                     raise UsageError(f"input '{name}' is given both a time table (inputs) "
                                      f"and a value (set['{given}']): give one")
-        return simulate(self.module, self.parameters(set), t_end=t_end, dt_out=dt_out,
+        module = self.module if not sensitivities else self.tangent_module()
+        return simulate(module, self.parameters(set), t_end=t_end, dt_out=dt_out,
                         tol=tol, progress=progress, max_steps=max_steps, inputs=inputs,
-                        stepping=stepping)
+                        stepping=stepping, sensitivities=tuple(sensitivities))
+
+    def tangent_module(self):
+        """The model's module with its tangent functions (generated into the cache the first
+        time, for this simulator's target)."""
+        from depsim.runtime.binding import bind
+
+        if self._tangents is None:
+            if bind(self.module).tangents:
+                self._tangents = self.module
+            else:
+                self._tangents = self.model.compile(self.target, tangents=True).module
+        return self._tangents
 
 
     def modes(self, at: str | float = "t=0", count: int | None = None,

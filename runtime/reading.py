@@ -13,7 +13,7 @@ import numpy as np
 
 from .core import core, ffi
 from .loads import Deployment, LatchRecord, PeakLoad
-from .results import EventRecord, PassStats, Result, RunEnd, Stats
+from .results import EventRecord, PassStats, Result, RunEnd, Sensitivities, Stats
 
 
 def text(value) -> str:
@@ -153,7 +153,21 @@ def read_result(module, r) -> Result:
         hinge_torque=doubles(r.hinge_torque, n, r.nh), peak_loads=_peaks(module, r),
         deployment=_deployment(module, r.deployment), report_text=text(r.report),
         system_names=tuple(getattr(module, "SYSTEM_STATE", ())),
-        system=_system(module, q, qd, p))
+        system=_system(module, q, qd, p), sensitivities=_sensitivities(module, r))
+
+
+def _sensitivities(module, r) -> Sensitivities | None:
+    """The sensitivities the run followed (dep_result.sensitivity_*), or None."""
+    k = r.n_sensitivities
+    if k == 0:
+        return None
+    n, nq, nout = r.n, r.nq, r.nout
+    state = doubles(r.sensitivity_state, n, k, 2 * nq)
+    return Sensitivities(
+        parameters=tuple(module.PARAMETERS[r.sensitivity_params[i]] for i in range(k)),
+        q=state[:, :, :nq], qd=state[:, :, nq:], outputs=doubles(r.sensitivity_outputs, n, k, nout),
+        event_times=doubles(r.sensitivity_events, r.n_events, k),
+        output_names=tuple(module.OUTPUTS))
 
 
 def read_end(module, r) -> RunEnd:

@@ -93,6 +93,36 @@ class EventRecord:
 
 
 @dataclass(frozen=True)
+class Sensitivities:
+    """Forward sensitivities of a run (docs/calibration.md): the derivatives of its trajectory
+    with respect to the parameters followed, at the output times, computed by the core along
+    the run (docs/method.md, 12). Shapes: n output times, k parameters."""
+
+    parameters: tuple[str, ...]  # (k,) the parameters followed, by name
+    q: np.ndarray  # (n, k, NQ) d q / d p
+    qd: np.ndarray  # (n, k, NQ) d qd / d p
+    outputs: np.ndarray  # (n, k, NOUT) d output / d p (SI per SI; NaN: a dissipated work's)
+    event_times: np.ndarray  # (n_events, k) d t_event / d p of each event record (0 at t = 0)
+    output_names: tuple[str, ...] = ()
+
+    def output(self, name: str, parameter: str) -> np.ndarray:
+        """d output / d parameter at the output times (n,)."""
+        if name not in self.output_names:
+            raise KeyError(f"no output '{name}' (outputs: {', '.join(self.output_names)})")
+        return self.outputs[:, self._index(parameter), self.output_names.index(name)]
+
+    def _index(self, parameter: str) -> int:
+        if parameter not in self.parameters:
+            raise KeyError(f"no sensitivity to '{parameter}' (followed: "
+                           f"{', '.join(self.parameters)})")
+        return self.parameters.index(parameter)
+
+    def event_time(self, index: int, parameter: str) -> float:
+        """d t / d parameter of event record `index` (Result.events[index])."""
+        return float(self.event_times[index, self._index(parameter)])
+
+
+@dataclass(frozen=True)
 class Result:
     """Everything a run produced. Shapes: n output times, NQ coordinates, rows ever active."""
 
@@ -133,6 +163,7 @@ class Result:
     report_text: str  # the run's summary, as report() returns it
     system_names: tuple[str, ...] = ()  # mass, com_x, com_y, momentum_x, momentum_y, ...
     system: np.ndarray | None = None  # (n, NSYS) the whole system's, SI (system_state)
+    sensitivities: Sensitivities | None = None  # with simulate(..., sensitivities=[...])
 
     @property
     def latch_hinges(self) -> tuple[str, ...]:
@@ -184,7 +215,8 @@ class Result:
             "tolerances": {"tol": self.tol, "constraint_tol": self.constraint_tol,
                            "t_end": self.t_end, "dt_out": self.dt_out},
             "statistics": dataclasses.asdict(self.stats),
-            "events": [{"name": e.name, "t": e.t, **e.data} for e in self.events],
+            "events": [{"name": e.name, "t": e.t, **e.data, **self._event_sensitivity(k)}
+                       for k, e in enumerate(self.events)],
             "deployment": _deployment_summary(self.deployment),
             "peak_hinge_loads": {h: _finite(dataclasses.asdict(p))
                                  for h, p in self.peak_loads.items()},
@@ -192,6 +224,15 @@ class Result:
         if system:
             found["system"] = self.system_summary()
         return found
+
+    def _event_sensitivity(self, k: int) -> dict:
+        """{"dt_dp": {parameter: d t / d p}} of event record k, when sensitivities were followed
+        (null where the event's time was not followed)."""
+        s = self.sensitivities
+        if s is None:
+            return {}
+        return {"dt_dp": _finite({name: float(s.event_times[k, i])
+                                  for i, name in enumerate(s.parameters)})}
 
     def system_summary(self) -> dict:
         """The system's quantities (mass, centre of mass, momentum, angular momentum about the

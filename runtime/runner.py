@@ -29,7 +29,8 @@ from .results import Result, RunEnd
 def simulate(module, params: np.ndarray | None = None, t_end: float | None = None,
              dt_out: float | None = None, tol: float | None = None, events=(),
              progress: bool = False, mechanics: bool = True,
-             max_steps: float | None = None, inputs=None, stepping: str = "auto") -> Result:
+             max_steps: float | None = None, inputs=None, stepping: str = "auto",
+             sensitivities=()) -> Result:
     """Integrate a model with the iterative multiplier method (docs/method.md).
 
     module: a generated NumPy module (docs/generated-module.md) or a compiled C model
@@ -44,7 +45,9 @@ def simulate(module, params: np.ndarray | None = None, t_end: float | None = Non
     input not given keeps its parameters (docs/language.md, Inputs); stepping: the ODE method
     under the multiplier iteration, "auto" (DOPRI 5(4), and for a model with beams the
     linearly implicit step once a stiff mode holds DOPRI's step at its stability bound),
-    "explicit" or "implicit" (docs/method.md, 10).
+    "explicit" or "implicit" (docs/method.md, 10); sensitivities: names of parameters whose
+    forward sensitivities the core follows along the run (Result.sensitivities; the module
+    needs its tangent functions, docs/calibration.md).
     Raises SolverError when the integration cannot go on, ValueError for bad settings.
     """
     binding = bind(module)
@@ -59,6 +62,9 @@ def simulate(module, params: np.ndarray | None = None, t_end: float | None = Non
         entry.t = view.from_buffer("double[]", times)
         entry.u = view.from_buffer("double[]", values)
     settings.tables, settings.n_tables = table_array, len(tables)
+    followed = view.new("int[]", sensitivity_indices(model, sensitivities, binding.tangents)
+                        or [0])
+    settings.sensitivities, settings.n_sensitivities = followed, len(sensitivities)
     bridge = EventBridge(model, p, events)
     bar = Progress(settings.t_end, progress)
 
@@ -140,6 +146,26 @@ class RunEnds:
             return read_end(self.model, self._result)
         finally:
             core().dep_result_free(self._result)
+
+
+def sensitivity_indices(module, names, tangents: bool) -> list[int]:
+    """The parameter indices of `names`; ValueError for a name that is not a parameter, a
+    repeated one, or a module without tangent functions."""
+    names = list(names)
+    if not names:
+        return []
+    if not tangents:
+        raise ValueError(f"model '{module.MODEL_NAME}' was compiled without its tangent "
+                         "functions, which sensitivities need: compile it with "
+                         "tangents=True")
+    known = tuple(module.PARAMETERS)
+    for name in names:
+        if name not in known:
+            raise ValueError(f"sensitivity to '{name}': not a parameter of the model "
+                             f"(parameters: {', '.join(known)})")
+    if len(set(names)) != len(names):
+        raise ValueError("sensitivities: each parameter once")
+    return [known.index(name) for name in names]
 
 
 STEPPINGS = ("auto", "explicit", "implicit")  # dep_settings.stepping, in its enum's order

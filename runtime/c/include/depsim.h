@@ -77,6 +77,10 @@ typedef struct dep_settings {
        q, qd, the hinge angles and rates, energies and residuals left nought: the standalone
        program, which writes the outputs alone, saves their evaluation at every row. */
     int rows;
+    /* Forward sensitivities (docs/method.md, 12): the indices into p of the parameters to
+       follow (NULL/0: none). The model needs its tangent functions (dep_model.tangents). */
+    const int *sensitivities;
+    int n_sensitivities;
 } dep_settings;
 
 enum dep_stepping { DEP_STEPPING_AUTO = 0, DEP_STEPPING_EXPLICIT = 1, DEP_STEPPING_IMPLICIT = 2 };
@@ -280,6 +284,13 @@ typedef struct dep_result {
     int n_events;
     dep_event_record *events;
     char *report;                  /* the run's summary as `depsim run` prints it */
+    /* With dep_settings.n_sensitivities = k > 0: the parameters followed (k indices into p),
+       and d/dp of q and qd (n x k x 2 nq: dq then dqd), of the outputs (n x k x nout; NAN for
+       an output made of a dissipated work) and of each event record's time (n_events x k; 0
+       at t = 0, NAN where not followed). */
+    int n_sensitivities;
+    int *sensitivity_params;
+    double *sensitivity_state, *sensitivity_outputs, *sensitivity_events;
 } dep_result;
 
 /* The model's own settings (T_END, DT_OUT, TOL), mechanics on. */

@@ -170,19 +170,25 @@ static int retake(dep_run *run, const dep_event *event, double *t_event, const d
 }
 
 /* The run ends at the event: its records, then the state's row at t_event. */
-static int stop_here(dep_run *run, const dep_event *event, double t_event, const dep_state *here)
+static int stop_here(dep_run *run, int k, double t_event, const dep_state *here)
 {
-    int status;
+    const dep_event *event = &run->watch.events[k];
+    int status, first = run->n_records;
     if (here != &run->state) {
         dep_state_copy(&run->state, here, run->nq, run->cs.nc, run->nd);
     }
     if ((status = dep_run_log_event(run, event->name, t_event, &run->change)) != DEP_OK
+        || (status = dep_sensitivity_event(run, k, t_event, here, first, 1)) != DEP_OK
         || (status = dep_run_record_until(run, t_event, NULL)) != DEP_OK) {
         return status;
     }
     if (dep_recorder_last_time(&run->recorder) != t_event) {
         const dep_state *s = &run->state;
         status = dep_record(&run->recorder, t_event, s->q, s->qd, s->lam, s->work, &run->cs);
+        if (status == DEP_OK) {
+            return dep_sensitivity_record(run, run->recorder.rows - 1, t_event, s->q, s->qd,
+                                          s->lam, s->work);
+        }
     }
     return status == DEP_OK ? DEP_OK : dep_plain_error(run->error, status, "out of memory");
 }
@@ -215,10 +221,12 @@ static int fire(dep_run *run, int k, double t_event, double side, int *stop)
     dep_run_observe_loads(run, here);
     *stop = run->change.stop < 0 ? event->terminal != 0 : run->change.stop != 0;
     if (*stop) {
-        return stop_here(run, event, t_event, here);
+        return stop_here(run, k, t_event, here);
     }
+    int first = run->n_records;
     if ((status = dep_run_apply_change(run, &run->change, here)) != DEP_OK
-        || (status = dep_run_log_event(run, event->name, t_event, &run->change)) != DEP_OK) {
+        || (status = dep_run_log_event(run, event->name, t_event, &run->change)) != DEP_OK
+        || (status = dep_sensitivity_event(run, k, t_event, here, first, 0)) != DEP_OK) {
         return status;
     }
     dep_run_observe_loads(run, &run->state);
@@ -262,6 +270,10 @@ int dep_run_after_step(dep_run *run, int *stop)
         if (status != DEP_OK) {
             return status;
         }
+    }
+    status = dep_sensitivity_step(run, &run->outcome, k < 0 ? new->t : t_event);
+    if (status != DEP_OK) {
+        return status;
     }
     status = dep_run_record_until(run, k < 0 ? new->t : t_event, &run->outcome);
     if (status != DEP_OK) {

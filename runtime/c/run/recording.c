@@ -401,7 +401,8 @@ void dep_result_free(dep_result *result)
                         result->hinge_angles, result->hinge_rates, result->outputs,
                         result->residual_pos, result->residual_vel, result->residual_acc,
                         result->energy, result->dissipated, result->hinge_force,
-                        result->hinge_torque};
+                        result->hinge_torque, result->sensitivity_state,
+                        result->sensitivity_outputs, result->sensitivity_events};
     for (size_t i = 0; i < sizeof arrays / sizeof *arrays; ++i) {
         free(arrays[i]);
     }
@@ -413,5 +414,6 @@ void dep_result_free(dep_result *result)
     free(result->deployment.latch_hinges);
     free(result->deployment.latches);
     free(result->report);
+    free(result->sensitivity_params);
     memset(result, 0, sizeof *result);
 }

@@ -81,6 +81,9 @@ static int setup(dep_run *run, const double *params, const dep_event *events, in
                             : DEP_OK;
     run->recorder.records = &run->records; /* the impacts so far, for the run values */
     run->recorder.n_records = &run->n_records;
+    if (status == DEP_OK && (status = dep_sensitivity_init(run)) != DEP_OK) {
+        return status;
+    }
     run->run_values = dep_doubles(arena, DEP_RUN_VALUES(m) + 1);
     run->run_energy = dep_doubles(arena, (size_t)run->system.ne + 1);
     if (status == DEP_SETTINGS_ERROR) {
@@ -173,6 +176,7 @@ int dep_run_begin(dep_run *run)
     int status;
     if ((status = dep_run_assemble(run, run->q, run->qd)) != DEP_OK
         || (status = dep_run_start(run, run->q, run->qd)) != DEP_OK
+        || (status = dep_sensitivity_begin(run)) != DEP_OK
         || (status = dep_run_record_until(run, 0.0, NULL)) != DEP_OK) {
         return status;
     }
@@ -259,7 +263,8 @@ int dep_run_finish(dep_run *run, dep_result *result)
                                     run->stepper.rhs_evaluations);
     result->stats.implicit_from = run->implicit_from;
     result->stats.stiff_rate = run->stiff_rate;
-    if (dep_summarize(run->model, &run->system, &run->loads, result) != DEP_OK) {
+    if (dep_summarize(run->model, &run->system, &run->loads, result) != DEP_OK
+        || dep_sensitivity_result(run, result) != DEP_OK) {
         dep_result_free(result);
         return dep_plain_error(run->error, DEP_MEMORY_ERROR, "out of memory");
     }

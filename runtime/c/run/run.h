@@ -14,6 +14,8 @@
  *   steps.c      accepted steps: the step's errors, its size, the step budget
  *   firing.c     events: located, the step re-taken to them, fired
  *   inputs.c     inputs: time tables piece by piece, values set from outside
+ *   tangents.c   the motion's tangent along the forward sensitivities, their projection
+ *   sensitivity.c  forward sensitivities along a run: steps, events, outputs, the result
  *   run.c        a run set up, begun, advanced, finished and freed
  *   snapshot.c   a run's state saved and restored (its memory, or its calls replayed)
  */
@@ -125,6 +127,65 @@ dep_stats dep_tally_stats(const dep_tally *tally, long long integrations,
    by 3e-5 m). */
 #define DEP_IMPLICIT_PROFILE_NODES 2
 
+/* ---- sensitivity.c: forward sensitivities (docs/method.md, 12) ------------------------- */
+
+typedef struct dep_sensitivity {
+    int k;                 /* parameters followed (dep_settings.sensitivities); 0: none */
+    int *params;           /* k: their indices into p */
+    /* k x 2 nq each: s = (dq/dp, dqd/dp) per parameter at run->state and its rate ds; s0, ds0
+       at the start of the step followed last (t0 .. t1: the dense output); stage, k2 .. k4
+       the Runge-Kutta stages */
+    double *s, *ds, *s0, *ds0, *stage, *k2, *k3, *k4;
+    double t0, t1;
+    double *dlam;          /* k x capacity: the multipliers' tangent at the last state solved */
+    double *dM, *dH;       /* k x (nmz + 1), k x (nh + 1) x DEP_HINGE_PROPERTIES: constants */
+    double *dp;            /* np: the unit direction of the parameter being followed */
+    dep_multipliers mp;    /* S = J M^-1 J^T of the states it visits (its own Schur cache) */
+    double *J, *dJ;        /* the active rows' Jacobian and its tangent (DEP_JACOBIAN_SIZE) */
+    long long ids, J_id;
+    int unsolved;          /* a solve with S failed (a singular S): the values are unreliable */
+    /* scratch: rows (capacity), coordinates (nq), hinges (nh), hinge Jacobians (nhnz) */
+    double *gamma, *lam, *r2, *y, *b, *c;
+    double *f, *qdd, *r1, *u, *v, *Dq, *Dqd, *Q, *QD;
+    double *tau, *theta, *rate, *dtheta, *drate, *dtau, *gamma_h, *Jh, *dJh;
+    /* the sensitivities of the added rows' angles (DEP_MAX_ADDED x k), by the rows' ids */
+    long long row_ids[DEP_MAX_ADDED];
+    double *row_angles, *saved_angles;
+    int n_rows;
+    /* recorded: per output row k x 2 nq and k x (nout + 1); per event record k dtau/dp */
+    double *out_q, *out_y, *w, *dw, *energy, *torques;
+    double *event_times;
+    int event_capacity;
+} dep_sensitivity;
+
+/* tangents.c: the memory and the constants of the run's sensitivities (none: k = 0) */
+int dep_sensitivity_init(dep_run *run);
+/* J of the active rows at (q, t) for the solves below, under a new identity */
+void dep_sens_at_state(dep_run *run, double t, const double *q);
+/* out = S^-1 b, S = J M^-1 J^T (sens->unsolved set where it cannot be solved) */
+void dep_sens_schur(dep_run *run, const double *b, double *out);
+/* M x + J^T y = r1, J x = r2 */
+void dep_sens_solve_motion(dep_run *run, const double *r1, const double *r2, double *xq,
+                           double *y);
+/* sens->dJ: the active rows' Jacobian's tangent along (dq, sens->dp) */
+void dep_sens_jacobian_tangent(dep_run *run, double t, const double *q, const double *dq);
+/* lambda, qdd of the motion at the state (sens->lam, qdd) and, for every parameter, the rate ds
+   of the sensitivities s and the multipliers' tangent (sens->dlam) */
+void dep_sens_motion_tangent(dep_run *run, double t, const double *q, const double *qd,
+                             const double *s, double *ds);
+/* s onto the tangents of the position and velocity constraints at the state */
+void dep_sens_project(dep_run *run, double t, const double *q, const double *qd, double *s);
+/* The added rows' angle sensitivities after the rows changed (new rows: at q) */
+void dep_sens_rows_changed(dep_run *run, const double *q);
+/* sensitivity.c: along the run */
+int dep_sensitivity_begin(dep_run *run);
+int dep_sensitivity_step(dep_run *run, const dep_outcome *end, double t1);
+int dep_sensitivity_record(dep_run *run, int row, double t, const double *q, const double *qd,
+                           const double *lam, const double *work);
+int dep_sensitivity_event(dep_run *run, int index, double t_event, const dep_state *before,
+                          int first, int stopped);
+int dep_sensitivity_result(dep_run *run, dep_result *result);
+
 /* The accepted point before run->state (for the velocity interpolant, method/dopri.c); valid is 0
    after a start or an event. */
 typedef struct dep_prior {
@@ -195,6 +256,7 @@ struct dep_run { /* typedef in depsim.h */
     int recording;   /* 1: outputs at the output times (dep_simulate); 0: dep_open's runs */
     int stopped;     /* a terminal event ended the run */
     dep_replay replay;
+    dep_sensitivity sens;
 };
 
 

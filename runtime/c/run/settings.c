@@ -203,6 +203,17 @@ int dep_check_settings(const dep_model *model, const double *p, const dep_settin
                                "forces with a Jacobian (a model with beams); this model has "
                                "none");
     }
+    if (settings->n_sensitivities != 0 && (open || settings->n_sensitivities < 0
+                                           || settings->sensitivities == NULL)) {
+        return dep_plain_error(error, DEP_SETTINGS_ERROR, open
+            ? "sensitivities are computed by a whole run (dep_simulate), not an open one"
+            : "n_sensitivities must be 0, or the count of the indices in sensitivities");
+    }
+    if (settings->n_sensitivities > 0 && settings->stepping == DEP_STEPPING_IMPLICIT) {
+        return dep_plain_error(error, DEP_SETTINGS_ERROR, "sensitivities are not followed "
+                               "through the linearly implicit step yet: use stepping "
+                               "explicit");
+    }
     for (int k = 0; k < settings->n_tables && !open; ++k) {
         int status = check_table(model, &settings->tables[k], error);
         if (status != DEP_OK) {

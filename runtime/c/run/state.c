@@ -157,6 +157,16 @@ int dep_run_record_until(dep_run *run, double t_until, const dep_outcome *end)
         if (status != DEP_OK) {
             return dep_plain_error(run->error, status, "out of memory");
         }
+        if (end == NULL) {
+            status = dep_sensitivity_record(run, run->recorder.rows - 1, t, start->q, start->qd,
+                                            start->lam, start->work);
+        } else {
+            status = dep_sensitivity_record(run, run->recorder.rows - 1, t, run->q, run->qd,
+                                            run->lam, run->work);
+        }
+        if (status != DEP_OK) {
+            return status;
+        }
     }
     return DEP_OK;
 }

@@ -11,7 +11,7 @@
 dep_settings dep_default_settings(const dep_model *model)
 {
     dep_settings settings = {model->t_end, model->dt_out, model->tol, 1, NULL, NULL, 0.0,
-                             NULL, 0, DEP_STEPPING_AUTO, DEP_ROWS_ALL};
+                             NULL, 0, DEP_STEPPING_AUTO, DEP_ROWS_ALL, NULL, 0};
     return settings;
 }
 

@@ -1,0 +1,400 @@
+/* sensitivity.c: forward sensitivities of a run with respect to chosen parameters
+ * (docs/method.md, 12): s_k = (dq/dp_k, dqd/dp_k) carried along the accepted trajectory by the
+ * variational equations of the constrained motion (tangents.c), their jumps at events, the
+ * event times' sensitivities, and the outputs' at the output times (run.h).
+ *
+ * Over each accepted step the sensitivity ODE ds_k/dt = (dqd, dqdd) is integrated with the
+ * classical fourth-order Runge-Kutta method on the step's interpolant, and its end projected
+ * onto the tangents of the position and velocity constraints.
+ *
+ * At an event at tau(p) with condition g(q, p) = 0 (a latch or a stop reached, a hold-down's
+ * release time): dtau/dp = -(g_q dq + g_p) / g' by the implicit function theorem, and with
+ * D x- = s- + x'- dtau, the state after the event x+ = Gamma(x-) (a plastic impact onto the
+ * new rows: M qd+ + J^T mu = M qd-, J qd+ = -Phi_t) gives s+ = Gamma_x D x- + Gamma_p - x'+ dtau.
+ */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "run.h"
+
+static int event_record_time(dep_run *run, int first, const double *dtau);
+
+/* ---- a run's sensitivities ----------------------------------------------------------------- */
+
+/* At t = 0 (after dep_run_start): the initial state's sensitivities from the assembly tree's
+   tangents, projected onto the constraints' (a loop's closure), and their rates. */
+int dep_sensitivity_begin(dep_run *run)
+{
+    dep_sensitivity *x = &run->sens;
+    const dep_model *m = run->model;
+    if (x->k == 0) {
+        return DEP_OK;
+    }
+    size_t nv = (size_t)m->nv + 1, n2 = 2 * (size_t)run->nq;
+    double *v0 = calloc(4 * nv, sizeof *v0);
+    if (v0 == NULL) {
+        return dep_plain_error(run->error, DEP_MEMORY_ERROR, "out of memory");
+    }
+    double *vd0 = v0 + nv, *dv0 = vd0 + nv, *dvd0 = dv0 + nv;
+    m->tree_values(run->p, v0, vd0);
+    for (int i = 0; i < x->k; ++i) {
+        double *dq = x->s + (size_t)i * n2;
+        x->dp[x->params[i]] = 1.0;
+        m->tree_values_tangent(run->p, x->dp, dv0, dvd0);
+        m->tree_pose_tangent(v0, run->p, dv0, x->dp, dq);
+        m->tree_tangent_tangent(v0, vd0, run->p, dv0, dvd0, x->dp, dq + run->nq);
+        x->dp[x->params[i]] = 0.0;
+    }
+    free(v0);
+    const dep_state *s = &run->state;
+    for (int r = 0; r < DEP_MAX_ADDED * x->k; ++r) {
+        x->row_angles[r] = NAN;
+    }
+    x->n_rows = 0;
+    dep_sens_rows_changed(run, s->q);
+    dep_sens_at_state(run, s->t, s->q);
+    dep_sens_project(run, s->t, s->q, s->qd, x->s);
+    dep_sens_motion_tangent(run, s->t, s->q, s->qd, x->s, x->ds);
+    x->t0 = x->t1 = s->t;
+    int status = event_record_time(run, 0, NULL); /* the records at t = 0: a fixed time */
+    if (status != DEP_OK) {
+        return status;
+    }
+    memcpy(x->s0, x->s, (size_t)x->k * n2 * sizeof(double));
+    memcpy(x->ds0, x->ds, (size_t)x->k * n2 * sizeof(double));
+    return DEP_OK;
+}
+
+/* A failure of the sensitivities' own: the step method they cannot follow. */
+static int unsupported(dep_run *run, double t, const char *what)
+{
+    char message[400];
+    snprintf(message, sizeof message, "sensitivities at t = %.9g s: %s", t, what);
+    return dep_plain_error(run->error, DEP_SETTINGS_ERROR, message);
+}
+
+/* s over the accepted step from run->state to t1 (<= its end: an event's time), the states
+   on the step's interpolant `end->data`. */
+int dep_sensitivity_step(dep_run *run, const dep_outcome *end, double t1)
+{
+    dep_sensitivity *x = &run->sens;
+    if (x->k == 0) {
+        return DEP_OK;
+    }
+    const dep_state *start = &run->state;
+    int nq = run->nq;
+    size_t n = (size_t)x->k * 2 * (size_t)nq;
+    double t0 = start->t, h = t1 - t0, step = end->state.t - t0, tm = t0 + 0.5 * h;
+    if (end->rk->method == DEP_ROSENBROCK) {
+        return unsupported(run, t0, "the run takes the linearly implicit step here (stiff "
+                           "elastic forces), which they do not follow yet; run with "
+                           "stepping='explicit'");
+    }
+    memcpy(x->s0, x->s, n * sizeof(double));
+    memcpy(x->ds0, x->ds, n * sizeof(double));
+    x->t0 = t0;
+    x->t1 = t1;
+    double *Q = x->Q, *QD = x->QD;
+    dep_interpolate(end->data, t0, step, nq, tm, Q, QD);
+    dep_sens_at_state(run, tm, Q);
+    for (size_t j = 0; j < n; ++j) {
+        x->stage[j] = x->s0[j] + 0.5 * h * x->ds0[j];
+    }
+    dep_sens_motion_tangent(run, tm, Q, QD, x->stage, x->k2);
+    for (size_t j = 0; j < n; ++j) {
+        x->stage[j] = x->s0[j] + 0.5 * h * x->k2[j];
+    }
+    dep_sens_motion_tangent(run, tm, Q, QD, x->stage, x->k3);
+    if (t1 == end->state.t) {
+        memcpy(Q, end->state.q, (size_t)nq * sizeof *Q);
+        memcpy(QD, end->state.qd, (size_t)nq * sizeof *QD);
+    } else {
+        dep_interpolate(end->data, t0, step, nq, t1, Q, QD);
+    }
+    dep_sens_at_state(run, t1, Q);
+    for (size_t j = 0; j < n; ++j) {
+        x->stage[j] = x->s0[j] + h * x->k3[j];
+    }
+    dep_sens_motion_tangent(run, t1, Q, QD, x->stage, x->k4);
+    for (size_t j = 0; j < n; ++j) {
+        x->s[j] = x->s0[j] + h / 6.0 * (x->ds0[j] + 2.0 * (x->k2[j] + x->k3[j]) + x->k4[j]);
+    }
+    dep_sens_project(run, t1, Q, QD, x->s);
+    dep_sens_motion_tangent(run, t1, Q, QD, x->s, x->ds);
+    return DEP_OK;
+}
+
+/* s at t in the step followed last: the cubic Hermite interpolant of its ends. */
+static void dense(const dep_sensitivity *x, int n2, double t, double *out)
+{
+    size_t n = (size_t)x->k * (size_t)n2;
+    double h = x->t1 - x->t0;
+    if (!(h > 0.0)) {
+        memcpy(out, x->s, n * sizeof *out);
+        return;
+    }
+    double u = (t - x->t0) / h;
+    double h00 = (1 + 2 * u) * (1 - u) * (1 - u), h10 = u * (1 - u) * (1 - u);
+    double h01 = u * u * (3 - 2 * u), h11 = u * u * (u - 1);
+    for (size_t j = 0; j < n; ++j) {
+        out[j] = h00 * x->s0[j] + h01 * x->s[j] + h * (h10 * x->ds0[j] + h11 * x->ds[j]);
+    }
+}
+
+/* The sensitivities at an output time t (the recorder's row just written, `row`): q, qd and
+   the outputs', the multipliers' tangent solved at the state. */
+int dep_sensitivity_record(dep_run *run, int row, double t, const double *q, const double *qd,
+                           const double *lam, const double *work)
+{
+    dep_sensitivity *x = &run->sens;
+    const dep_model *m = run->model;
+    if (x->k == 0 || !run->recording) {
+        return DEP_OK;
+    }
+    size_t k = (size_t)x->k, n2 = 2 * (size_t)run->nq, nout = (size_t)m->nout + 1;
+    double *s = x->out_q + (size_t)row * k * n2;
+    dense(x, (int)n2, t, s);
+    if (m->nout == 0) {
+        return DEP_OK;
+    }
+    dep_sens_at_state(run, t, q);
+    dep_sens_motion_tangent(run, t, q, qd, s, x->stage);
+    double *torques = x->torques;
+    if (run->mechanism != NULL) {
+        dep_mechanism_hinge_torques(run->mechanism, q, qd, &run->cs, lam, torques);
+    } else {
+        dep_lock_torques(m, &run->cs, lam, torques);
+    }
+    dep_run_values(&run->system, q, torques, work, dep_impact_loss(run->records, run->n_records),
+                   x->energy, x->w);
+    int nw = (int)DEP_RUN_VALUES(m);
+    for (size_t i = 0; i < k; ++i) {
+        const double *dlam = x->dlam + i * (size_t)run->cs.capacity;
+        for (int j = 0; j < nw; ++j) {
+            x->dw[j] = j < m->nh ? 0.0 : NAN; /* a work's sensitivity is not followed */
+        }
+        for (int a = run->cs.nc_module; a < run->cs.nc; ++a) {
+            int h = run->cs.row_hinges[a];
+            if (h >= 0) {
+                x->dw[h] -= dlam[a];
+            }
+        }
+        x->dp[x->params[i]] = 1.0;
+        m->outputs_tangent(q, qd, t, run->p, lam, x->w, s + i * n2, s + i * n2 + run->nq, x->dp,
+                           dlam, x->dw, x->out_y + ((size_t)row * k + i) * nout);
+        x->dp[x->params[i]] = 0.0;
+    }
+    return DEP_OK;
+}
+
+/* ---- events -------------------------------------------------------------------------------- */
+
+static int event_record_time(dep_run *run, int first, const double *dtau)
+{
+    dep_sensitivity *x = &run->sens;
+    size_t k = (size_t)x->k;
+    if (run->n_records > x->event_capacity) {
+        int capacity = 2 * run->n_records + 8;
+        double *times = dep_doubles(&run->arena, (size_t)capacity * k);
+        if (times == NULL) {
+            return dep_plain_error(run->error, DEP_MEMORY_ERROR, "out of memory");
+        }
+        if (x->event_capacity > 0) {
+            memcpy(times, x->event_times, (size_t)x->event_capacity * k * sizeof *times);
+        }
+        for (size_t j = (size_t)x->event_capacity * k; j < (size_t)capacity * k; ++j) {
+            times[j] = NAN;
+        }
+        x->event_times = times;
+        x->event_capacity = capacity;
+    }
+    for (int r = first; r < run->n_records; ++r) {
+        for (size_t i = 0; i < k; ++i) {
+            x->event_times[(size_t)r * k + i] = dtau != NULL ? dtau[i] : 0.0;
+        }
+    }
+    return DEP_OK;
+}
+
+/* Event `index` of the watch fired at t_event: `before` the state it happened in, run->state
+   the state after it (its rows, its restart), the records from `first` on its own. dtau and
+   the jump of s; `stopped`: the run ends here (only dtau). */
+int dep_sensitivity_event(dep_run *run, int index, double t_event, const dep_state *before,
+                          int first, int stopped)
+{
+    dep_sensitivity *x = &run->sens;
+    const dep_model *m = run->model;
+    if (x->k == 0) {
+        return DEP_OK;
+    }
+    if (index < run->n_user_events && stopped) {
+        return DEP_OK; /* a user's terminal event: its time's sensitivity is not known */
+    }
+    if (index < run->n_user_events) {
+        return unsupported(run, t_event, "an event with a callback changes the run in ways "
+                           "they cannot follow");
+    }
+    const dep_mechanism_event *info = &run->mechanism->info[index - run->n_user_events];
+    const dep_hinge_mechanics *hm = info->hinge;
+    int h = hm->index, kind = info->kind, nq = run->nq;
+    size_t k = (size_t)x->k, n2 = 2 * (size_t)nq, nh1 = (size_t)m->nh + 1;
+    for (int r = first; r < run->n_records; ++r) {
+        int rk = run->records[r].kind;
+        if (rk != DEP_RECORD_LATCH && rk != DEP_RECORD_LATCH_CONTACT && rk != DEP_RECORD_STOP
+            && rk != DEP_RECORD_RELEASE) {
+            char what[DEP_NAME_MAX + 120];
+            snprintf(what, sizeof what, "event '%.*s' (stick-slip, a latch separating) is a "
+                     "transition they do not follow yet", DEP_NAME_MAX, run->records[r].name);
+            return unsupported(run, t_event, what);
+        }
+    }
+    /* dtau: g = theta - angle (a latch, a stop reached), or t - release */
+    double dtau[64], *dt = k <= 64 ? dtau : malloc(k * sizeof *dt);
+    if (dt == NULL) {
+        return dep_plain_error(run->error, DEP_MEMORY_ERROR, "out of memory");
+    }
+    double rate = 0.0;
+    if (kind != DEP_KIND_HOLD) {
+        m->hinge_rates(before->q, before->qd, run->p, x->rate);
+        rate = x->rate[h];
+    }
+    for (size_t i = 0; i < k; ++i) {
+        const double *dh = x->dH + (i * nh1 + (size_t)h) * DEP_HINGE_PROPERTIES;
+        if (kind == DEP_KIND_HOLD) {
+            dt[i] = dh[DEP_HINGE_RELEASE];
+            continue;
+        }
+        double angle = kind == DEP_KIND_LATCH ? dh[DEP_HINGE_LATCH]
+            : kind == DEP_KIND_STOP_MAX ? dh[DEP_HINGE_STOP_MAX] : dh[DEP_HINGE_STOP_MIN];
+        x->dp[x->params[i]] = 1.0;
+        m->hinge_angles_tangent(before->q, run->p, x->s + i * n2, x->dp, x->dtheta);
+        x->dp[x->params[i]] = 0.0;
+        dt[i] = -(x->dtheta[h] - angle) / rate;
+    }
+    int status = event_record_time(run, first, dt);
+    if (status != DEP_OK || stopped) {
+        if (dt != dtau) {
+            free(dt);
+        }
+        return status;
+    }
+    /* the jump: D x- = s- + x'- dtau; q continuous; qd+ by the impact onto the new rows */
+    const dep_state *after = &run->state;
+    dep_sens_rows_changed(run, after->q);
+    dep_sens_at_state(run, t_event, after->q);
+    int impact = 0;
+    for (int j = 0; j < nq; ++j) {
+        impact |= after->qd[j] != before->qd[j];
+    }
+    if (impact) { /* mu: M qd+ + J^T mu = M qd-, J qd+ = -Phi_t */
+        dep_cs_phi_t(&run->cs, after->q, t_event, x->b);
+        dep_cs_times(&run->cs, x->J, before->qd, x->gamma);
+        for (int a = 0; a < run->cs.nc; ++a) {
+            x->gamma[a] += x->b[a];
+        }
+        dep_sens_schur(run, x->gamma, x->lam);
+    }
+    for (size_t i = 0; i < k; ++i) {
+        double *dq = x->s + i * n2, *dqd = dq + nq;
+        for (int j = 0; j < nq; ++j) {
+            x->Dq[j] = dq[j] + before->qd[j] * dt[i];
+            x->Dqd[j] = dqd[j] + before->qdd[j] * dt[i];
+        }
+        if (impact) {
+            const dep_mass *mass = &run->system.mass;
+            x->dp[x->params[i]] = 1.0;
+            dep_sens_jacobian_tangent(run, t_event, after->q, x->Dq);
+            memset(x->r1, 0, (size_t)nq * sizeof(double));
+            for (int e = 0; e < m->nmz; ++e) { /* M D qd- + dM (qd- - qd+) - dJ^T mu */
+                int row = m->mass_rows[e], col = m->mass_cols[e];
+                x->r1[row] += mass->values[e] * x->Dqd[col] + x->dM[i * ((size_t)m->nmz + 1) + e]
+                    * (before->qd[col] - after->qd[col]);
+            }
+            dep_cs_transpose_times(&run->cs, x->dJ, x->lam, x->u);
+            for (int j = 0; j < nq; ++j) {
+                x->r1[j] -= x->u[j];
+            }
+            m->phi_t_tangent(after->q, t_event, run->p, x->Dq, x->dp, x->r2);
+            for (int a = run->cs.nc_module; a < run->cs.nc; ++a) {
+                x->r2[a] = 0.0;
+            }
+            dep_cs_times(&run->cs, x->dJ, after->qd, x->b);
+            for (int a = 0; a < run->cs.nc; ++a) {
+                x->r2[a] = -(x->r2[a] + x->b[a]);
+            }
+            dep_sens_solve_motion(run, x->r1, x->r2, x->Dqd, x->gamma);
+            x->dp[x->params[i]] = 0.0;
+        }
+        for (int j = 0; j < nq; ++j) {
+            dq[j] = x->Dq[j] - after->qd[j] * dt[i];
+            dqd[j] = x->Dqd[j] - after->qdd[j] * dt[i];
+        }
+    }
+    if (dt != dtau) {
+        free(dt);
+    }
+    dep_sens_project(run, t_event, after->q, after->qd, x->s);
+    dep_sens_motion_tangent(run, t_event, after->q, after->qd, x->s, x->ds);
+    x->t0 = x->t1 = t_event;
+    memcpy(x->s0, x->s, k * n2 * sizeof(double));
+    memcpy(x->ds0, x->ds, k * n2 * sizeof(double));
+    return DEP_OK;
+}
+
+/* ---- the result ---------------------------------------------------------------------------- */
+
+static double *copy_out(const double *from, size_t n, int *failed)
+{
+    double *out = malloc((n ? n : 1) * sizeof *out);
+    if (out == NULL) {
+        *failed = 1;
+        return NULL;
+    }
+    if (n) {
+        memcpy(out, from, n * sizeof *out);
+    }
+    return out;
+}
+
+int dep_sensitivity_result(dep_run *run, dep_result *result)
+{
+    dep_sensitivity *x = &run->sens;
+    const dep_model *m = run->model;
+    result->n_sensitivities = x->k;
+    if (x->k == 0) {
+        return DEP_OK;
+    }
+    size_t k = (size_t)x->k, n2 = 2 * (size_t)run->nq, rows = (size_t)result->n;
+    size_t nout = (size_t)m->nout;
+    int failed = 0;
+    result->sensitivity_params = malloc(k * sizeof *result->sensitivity_params);
+    if (result->sensitivity_params == NULL) {
+        return DEP_MEMORY_ERROR;
+    }
+    memcpy(result->sensitivity_params, x->params, k * sizeof *x->params);
+    result->sensitivity_state = copy_out(x->out_q, rows * k * n2, &failed);
+    size_t n_outputs = rows * k * nout, n_events = (size_t)run->n_records * k;
+    result->sensitivity_outputs = malloc((n_outputs > 0 ? n_outputs : 1) * sizeof(double));
+    if (result->sensitivity_outputs == NULL) {
+        return DEP_MEMORY_ERROR;
+    }
+    for (size_t r = 0; r < rows * k; ++r) {
+        for (size_t o = 0; o < nout; ++o) {
+            result->sensitivity_outputs[r * nout + o] = x->out_y[r * (nout + 1) + o];
+        }
+    }
+    size_t events = (size_t)run->n_records;
+    result->sensitivity_events = malloc((n_events > 0 ? n_events : 1) * sizeof(double));
+    if (result->sensitivity_events == NULL || failed) {
+        return DEP_MEMORY_ERROR;
+    }
+    for (size_t r = 0; r < events; ++r) {
+        for (size_t i = 0; i < k; ++i) {
+            result->sensitivity_events[r * k + i] = (int)r < x->event_capacity
+                ? x->event_times[r * k + i] : (run->records[r].t == 0.0 ? 0.0 : NAN);
+        }
+    }
+    return DEP_OK;
+}
