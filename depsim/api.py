@@ -259,10 +259,26 @@ class Simulator:
                 if given in (set or {}):
                     raise UsageError(f"input '{name}' is given both a time table (inputs) "
                                      f"and a value (set['{given}']): give one")
+        p = self.parameters(set)
+        if sensitivities:
+            self._check_sensitivities()
         module = self.module if not sensitivities else self.tangent_module()
-        return simulate(module, self.parameters(set), t_end=t_end, dt_out=dt_out,
+        return simulate(module, p, t_end=t_end, dt_out=dt_out,
                         tol=tol, progress=progress, max_steps=max_steps, inputs=inputs,
                         stepping=stepping, sensitivities=tuple(sensitivities))
+
+    def _check_sensitivities(self) -> None:
+        """UsageError for what forward sensitivities cannot follow, known from the model text:
+        a one-sided spring, whose force law switches where it engages (a jump with a preload
+        or damping, a kink without) at a time no event marks, so the sensitivities would miss
+        the switch's term (docs/calibration.md, what the sensitivities follow)."""
+        one_sided = [s.name for s in self.model.ir.springs if s.acts is not ir.SpringActs.BOTH]
+        if one_sided:
+            raise UsageError(
+                f"sensitivities: spring{'s' if len(one_sided) > 1 else ''} "
+                f"{', '.join(one_sided)} act{'' if len(one_sided) > 1 else 's'} one way (push "
+                "or pull), and the sensitivities do not follow the switch where such a spring "
+                "engages or lets go (without `acts` a spring acts both ways)")
 
     def tangent_module(self):
         """The model's module with its tangent functions (generated into the cache the first

@@ -494,6 +494,8 @@ int dep_run_assemble(dep_run *run, double *q, double *qd)
     m->tree_values(run->p, x.v, x.vd);
     m->tree_pose(x.v, run->p, q);
     m->tree_tangent(x.v, x.vd, run->p, qd);
+    run->tree_v = x.v; /* the joint values and rates placing the initial state */
+    run->tree_vd = x.vd;
     if (m->nv == 0) {
         return DEP_OK;
     }

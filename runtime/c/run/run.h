@@ -256,6 +256,7 @@ struct dep_run { /* typedef in depsim.h */
     int recording;   /* 1: outputs at the output times (dep_simulate); 0: dep_open's runs */
     int stopped;     /* a terminal event ended the run */
     dep_replay replay;
+    double *tree_v, *tree_vd; /* nv: the assembly tree's values and rates at t = 0 */
     dep_sensitivity sens;
 };
 

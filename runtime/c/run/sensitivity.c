@@ -23,32 +23,175 @@ static int event_record_time(dep_run *run, int first, const double *dtau);
 
 /* ---- a run's sensitivities ----------------------------------------------------------------- */
 
-/* At t = 0 (after dep_run_start): the initial state's sensitivities from the assembly tree's
-   tangents, projected onto the constraints' (a loop's closure), and their rates. */
-int dep_sensitivity_begin(dep_run *run)
+/* x (n) of least norm with A x = b (A: rows x n, row-major) in the least-squares sense, by
+   the normal equations on the smaller side with a ridge of 1e-13 of their largest diagonal
+   (a dependent row or column then costs nothing); `work`: (max(rows, n))^2 + rows doubles. */
+static void least_norm(const double *A, int rows, int n, const double *b, double *x,
+                       double *work)
+{
+    int side = rows < n ? rows : n;
+    double *N = work, *y = work + (size_t)side * side, largest = 0.0;
+    for (int a = 0; a < side; ++a) {
+        for (int e = 0; e < side; ++e) {
+            double sum = 0.0;
+            for (int c = 0; c < (rows < n ? n : rows); ++c) {
+                sum += rows < n ? A[(size_t)a * n + c] * A[(size_t)e * n + c]
+                                : A[(size_t)c * n + a] * A[(size_t)c * n + e];
+            }
+            N[(size_t)a * side + e] = sum;
+        }
+        largest = fmax(largest, N[(size_t)a * side + a]);
+    }
+    for (int a = 0; a < side; ++a) {
+        N[(size_t)a * side + a] += 1e-13 * fmax(largest, 1e-300);
+        double sum = 0.0;
+        for (int c = 0; c < rows && rows >= n; ++c) {
+            sum += A[(size_t)c * n + a] * b[c];
+        }
+        y[a] = rows < n ? b[a] : sum;
+    }
+    dep_solve_small(side, N, y);
+    for (int c = 0; c < n; ++c) {
+        double sum = 0.0;
+        for (int a = 0; a < rows && rows < n; ++a) {
+            sum += A[(size_t)a * n + c] * y[a];
+        }
+        x[c] = rows < n ? sum : y[c];
+    }
+}
+
+/* The residual of the assembly's conditions along (dq, dqd, dp) (level 0: the model's rows
+   Phi and the loop hinges' given angles; level 1: their rates), less `given` (the targets'
+   own tangents; NULL: none), into out (rows). */
+static void assembly_residual(dep_run *run, int level, const double *q, const double *qd,
+                              const double *dq, const double *dqd, const double *dp,
+                              const int *targets, int n_targets, const double *given,
+                              double *out)
 {
     dep_sensitivity *x = &run->sens;
     const dep_model *m = run->model;
+    int nc = run->cs.nc_module;
+    if (level == 0) {
+        m->phi_tangent(q, 0.0, run->p, dq, dp, out);
+        m->hinge_angles_tangent(q, run->p, dq, dp, x->dtheta);
+    } else {
+        m->phi_q_tangent(q, 0.0, run->p, dq, dp, x->dJ);
+        m->phi_t_tangent(q, 0.0, run->p, dq, dp, out);
+        dep_cs_times(&run->cs, x->J, dqd, x->b);
+        dep_cs_times(&run->cs, x->dJ, qd, x->c);
+        for (int a = 0; a < nc; ++a) {
+            out[a] += x->b[a] + x->c[a];
+        }
+        m->hinge_rates_tangent(q, qd, run->p, dq, dqd, dp, x->dtheta);
+    }
+    for (int k = 0; k < n_targets; ++k) {
+        out[nc + k] = x->dtheta[targets[k]] - (given != NULL ? given[targets[k]] : 0.0);
+    }
+}
+
+/* The initial state's sensitivities: the assembly's (assembly.c) linearised. The tree places
+   q = tree_pose(v), qd = tree_tangent(v, vd); the given values and rates move with p as
+   tree_values does, and the free ones so that the model's rows and the loop hinges' given
+   angles (rates) keep holding: the least-norm solution of those linear conditions, as the
+   assembly's Gauss-Newton steps take them. */
+static int initial_sensitivities(dep_run *run, const double *q, const double *qd)
+{
+    dep_sensitivity *x = &run->sens;
+    const dep_model *m = run->model;
+    int nv = m->nv, nq = run->nq, nc = run->cs.nc_module, nh = m->nh;
+    size_t n2 = 2 * (size_t)nq, k = (size_t)x->k, big = (size_t)(nv > nc + nh ? nv : nc + nh) + 1;
+    size_t wide = (size_t)(nq > m->np ? nq : m->np) + (size_t)nv + 1;
+    double *mem = calloc(3 * (size_t)nv + 3 + 4 * (size_t)nh + 4 + (size_t)(nc + nh) * nv
+                         + big * big + 3 * big + (size_t)nq + 1 + wide + k * (nv + 1), sizeof *mem);
+    int *index = calloc((size_t)(nv + nh) + 2, sizeof *index);
+    if (mem == NULL || index == NULL) {
+        free(mem);
+        free(index);
+        return dep_plain_error(run->error, DEP_MEMORY_ERROR, "out of memory");
+    }
+    double *dv = mem, *dvd = dv + nv + 1, *unit = dvd + nv + 1;
+    double *angle = unit + nv + 1, *rate = angle + nh + 1, *dangle = rate + nh + 1;
+    double *drate = dangle + nh + 1, *A = drate + nh + 1;
+    double *r0 = A + (size_t)(nc + nh) * nv, *solution = r0 + big, *work = solution + big;
+    double *column = work + big * big + big, *zero = column + nq + 1, *values = zero + wide;
+    int *free_values = index, *targets = index + nv + 1;
+    const double *v = run->tree_v, *vd = run->tree_vd;
+    m->loop_targets(run->p, angle, rate);
+    dep_sens_at_state(run, 0.0, q);
+    for (int level = 0; level < 2; ++level) { /* the values, then the rates */
+        int nf = 0, n_targets = 0;
+        for (int j = 0; j < nv; ++j) {
+            if (!(m->tree_held[j] & (level == 0 ? 1 : 2))) {
+                free_values[nf++] = j;
+            }
+        }
+        for (int h = 0; h < nh; ++h) {
+            if (isfinite(level == 0 ? angle[h] : rate[h])) {
+                targets[n_targets++] = h;
+            }
+        }
+        int rows = nc + n_targets;
+        for (int c = 0; c < nf && rows > 0; ++c) { /* the free values' (rates') columns */
+            unit[free_values[c]] = 1.0;
+            m->tree_tangent(v, unit, run->p, column); /* d q / d v_c, d qd / d vd_c */
+            unit[free_values[c]] = 0.0;
+            assembly_residual(run, level, q, qd, level == 0 ? column : zero,
+                              level == 0 ? zero : column, zero, targets, n_targets, NULL, r0);
+            for (int a = 0; a < rows; ++a) {
+                A[(size_t)a * nf + c] = r0[a];
+            }
+        }
+        for (size_t i = 0; i < k; ++i) {
+            double *dq = x->s + i * n2, *dqd = dq + nq, *solved = values + i * (size_t)(nv + 1);
+            x->dp[x->params[i]] = 1.0;
+            m->tree_values_tangent(run->p, x->dp, dv, dvd);
+            m->loop_targets_tangent(run->p, x->dp, dangle, drate);
+            if (level == 1) {
+                memcpy(dv, solved, (size_t)nv * sizeof *dv); /* the values as solved */
+            }
+            for (int c = 0; c < nf; ++c) {
+                (level == 0 ? dv : dvd)[free_values[c]] = 0.0;
+            }
+            m->tree_pose_tangent(v, run->p, dv, x->dp, dq);
+            m->tree_tangent_tangent(v, vd, run->p, dv, dvd, x->dp, dqd);
+            if (rows > 0 && nf > 0) {
+                assembly_residual(run, level, q, qd, dq, dqd, x->dp, targets, n_targets,
+                                  level == 0 ? dangle : drate, r0);
+                for (int a = 0; a < rows; ++a) {
+                    r0[a] = -r0[a];
+                }
+                least_norm(A, rows, nf, r0, solution, work);
+                for (int c = 0; c < nf; ++c) {
+                    (level == 0 ? dv : dvd)[free_values[c]] = solution[c];
+                }
+                m->tree_pose_tangent(v, run->p, dv, x->dp, dq);
+                m->tree_tangent_tangent(v, vd, run->p, dv, dvd, x->dp, dqd);
+            }
+            if (level == 0) {
+                memcpy(solved, dv, (size_t)nv * sizeof *dv);
+            }
+            x->dp[x->params[i]] = 0.0;
+        }
+    }
+    free(mem);
+    free(index);
+    return DEP_OK;
+}
+
+/* At t = 0 (after dep_run_start): the initial state's sensitivities (the assembly's), projected
+   onto the constraints of the rows the start engaged, and their rates. */
+int dep_sensitivity_begin(dep_run *run)
+{
+    dep_sensitivity *x = &run->sens;
     if (x->k == 0) {
         return DEP_OK;
     }
-    size_t nv = (size_t)m->nv + 1, n2 = 2 * (size_t)run->nq;
-    double *v0 = calloc(4 * nv, sizeof *v0);
-    if (v0 == NULL) {
-        return dep_plain_error(run->error, DEP_MEMORY_ERROR, "out of memory");
-    }
-    double *vd0 = v0 + nv, *dv0 = vd0 + nv, *dvd0 = dv0 + nv;
-    m->tree_values(run->p, v0, vd0);
-    for (int i = 0; i < x->k; ++i) {
-        double *dq = x->s + (size_t)i * n2;
-        x->dp[x->params[i]] = 1.0;
-        m->tree_values_tangent(run->p, x->dp, dv0, dvd0);
-        m->tree_pose_tangent(v0, run->p, dv0, x->dp, dq);
-        m->tree_tangent_tangent(v0, vd0, run->p, dv0, dvd0, x->dp, dq + run->nq);
-        x->dp[x->params[i]] = 0.0;
-    }
-    free(v0);
+    size_t n2 = 2 * (size_t)run->nq;
     const dep_state *s = &run->state;
+    int status = initial_sensitivities(run, s->q, s->qd);
+    if (status != DEP_OK) {
+        return status;
+    }
     for (int r = 0; r < DEP_MAX_ADDED * x->k; ++r) {
         x->row_angles[r] = NAN;
     }
@@ -58,7 +201,7 @@ int dep_sensitivity_begin(dep_run *run)
     dep_sens_project(run, s->t, s->q, s->qd, x->s);
     dep_sens_motion_tangent(run, s->t, s->q, s->qd, x->s, x->ds);
     x->t0 = x->t1 = s->t;
-    int status = event_record_time(run, 0, NULL); /* the records at t = 0: a fixed time */
+    status = event_record_time(run, 0, NULL); /* the records at t = 0: a fixed time */
     if (status != DEP_OK) {
         return status;
     }
@@ -240,13 +383,20 @@ int dep_sensitivity_event(dep_run *run, int index, double t_event, const dep_sta
     const dep_hinge_mechanics *hm = info->hinge;
     int h = hm->index, kind = info->kind, nq = run->nq;
     size_t k = (size_t)x->k, n2 = 2 * (size_t)nq, nh1 = (size_t)m->nh + 1;
-    for (int r = first; r < run->n_records; ++r) {
+    const char *refused = NULL;
+    for (int r = first; r < run->n_records && refused == NULL; ++r) {
         int rk = run->records[r].kind;
-        if (rk != DEP_RECORD_LATCH && rk != DEP_RECORD_LATCH_CONTACT && rk != DEP_RECORD_STOP
-            && rk != DEP_RECORD_RELEASE) {
-            char what[DEP_NAME_MAX + 120];
-            snprintf(what, sizeof what, "event '%.*s' (stick-slip, a latch separating) is a "
-                     "transition they do not follow yet", DEP_NAME_MAX, run->records[r].name);
+        refused = rk == DEP_RECORD_STICK || rk == DEP_RECORD_SLIP ? "a stick-slip transition"
+            : rk == DEP_RECORD_LATCH_SEPARATION ? "a compliant latch letting go"
+            : rk == DEP_RECORD_STOP && run->records[r].hinge >= 0 && !stopped
+                && run->system.hinges[run->records[r].hinge].stop == DEP_STOP_NONE
+                ? "a hinge leaving its stop"
+            : rk != DEP_RECORD_LATCH && rk != DEP_RECORD_LATCH_CONTACT && rk != DEP_RECORD_STOP
+                && rk != DEP_RECORD_RELEASE ? "a transition of this kind" : NULL;
+        if (refused != NULL) {
+            char what[DEP_NAME_MAX + 160];
+            snprintf(what, sizeof what, "event '%.*s' is %s, which they do not follow yet",
+                     DEP_NAME_MAX, run->records[r].name, refused);
             return unsupported(run, t_event, what);
         }
     }
