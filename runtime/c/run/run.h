@@ -142,7 +142,7 @@ typedef struct dep_sensitivity {
     double *dp;            /* np: the unit direction of the parameter being followed */
     dep_multipliers mp;    /* S = J M^-1 J^T of the states it visits (its own Schur cache) */
     double *J, *dJ;        /* the active rows' Jacobian and its tangent (DEP_JACOBIAN_SIZE) */
-    long long ids, J_id;
+    long long ids, J_id, base_id; /* base_id: the J_id lam and qdd were solved at */
     int unsolved;          /* a solve with S failed (a singular S): the values are unreliable */
     /* scratch: rows (capacity), coordinates (nq), hinges (nh), hinge Jacobians (nhnz) */
     double *gamma, *lam, *r2, *y, *b, *c;

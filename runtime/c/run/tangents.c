@@ -229,16 +229,20 @@ void dep_sens_motion_tangent(dep_run *run, double t, const double *q, const doub
     dep_constraints *cs = &run->cs;
     int nq = run->nq, nc = cs->nc, n2 = 2 * nq, forcing = dep_hinge_forcing(system);
     size_t nmz = (size_t)m->nmz + 1;
-    dep_system_force(system, q, qd, t, x->f);
-    dep_cs_gamma(cs, q, qd, t, x->gamma);
-    dep_sens_solve_motion(run, x->f, x->gamma, x->qdd, x->lam);
-    if (forcing || cs->n_added > 0) {
-        m->hinge_jacobian(q, run->p, x->Jh);
-    }
-    if (forcing) {
-        dep_hinge_torques(system, q, qd, NULL, x->tau);
-        m->hinge_rates(q, qd, run->p, x->rate);
-        m->hinge_angles(q, run->p, x->theta);
+    if (x->base_id != x->J_id) { /* the motion at this state (every caller passes the same
+                                     qd with the same J: at_state's identity keys it) */
+        dep_system_force(system, q, qd, t, x->f);
+        dep_cs_gamma(cs, q, qd, t, x->gamma);
+        dep_sens_solve_motion(run, x->f, x->gamma, x->qdd, x->lam);
+        if (forcing || cs->n_added > 0) {
+            m->hinge_jacobian(q, run->p, x->Jh);
+        }
+        if (forcing) {
+            dep_hinge_torques(system, q, qd, NULL, x->tau);
+            m->hinge_rates(q, qd, run->p, x->rate);
+            m->hinge_angles(q, run->p, x->theta);
+        }
+        x->base_id = x->J_id;
     }
     for (int i = 0; i < x->k; ++i) {
         const double *dq = s + (size_t)i * n2, *dqd = dq + nq;
