@@ -12,6 +12,7 @@ Works on generated module files only: no sympy, no depsim.dsl / depsim.codegen.
 """
 
 from .backends import StudyError, default_workers
+from .local import LocalStudy, local_study
 from .metrics import Metric
 from .plot import plot_study, study_figure
 from .probability import Probability, exceedance, not_deployed, probability
@@ -29,4 +30,5 @@ __all__ = [
     "StudyProgress", "Metric", "summarize", "metric_table", "drivers", "plot_study",
     "study_figure", "Probability", "probability", "not_deployed", "exceedance",
     "open_study", "partial_path", "load_module", "ModuleRef", "ENGINE", "default_workers",
+    "LocalStudy", "local_study",
 ]

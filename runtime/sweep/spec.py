@@ -76,6 +76,25 @@ class Distribution:
     def canonical(self) -> str:
         return f"{self.name}={self.kind}({', '.join(_fmt(a) for a in self.args)})"
 
+    @property
+    def mean(self) -> float:
+        """The distribution's mean (SI)."""
+        a = self.args
+        return {"normal": lambda: a[0], "uniform": lambda: (a[0] + a[1]) / 2,
+                "lognormal": lambda: a[0] * math.exp(a[1] ** 2 / 2),
+                "triangular": lambda: sum(a) / 3}[self.kind]()
+
+    @property
+    def std(self) -> float:
+        """The distribution's standard deviation (SI)."""
+        a = self.args
+        return {"normal": lambda: a[1], "uniform": lambda: (a[1] - a[0]) / math.sqrt(12),
+                "lognormal": lambda: a[0] * math.sqrt(math.exp(a[1] ** 2)
+                                                      * math.expm1(a[1] ** 2)),
+                "triangular": lambda: math.sqrt(
+                    (a[0] ** 2 + a[1] ** 2 + a[2] ** 2 - a[0] * a[1] - a[0] * a[2]
+                     - a[1] * a[2]) / 18)}[self.kind]()
+
     def draw(self, seed: int, runs: int) -> np.ndarray:
         """`runs` draws from this parameter's own PCG64 stream (see the module docstring)."""
         stream = np.random.SeedSequence(seed, spawn_key=(zlib.crc32(self.name.encode()),))
