@@ -8,8 +8,8 @@
 
 #include "method.h"
 
-static const double C[6] = {0, 1.0 / 5, 3.0 / 10, 4.0 / 5, 8.0 / 9, 1};
-static const double A[6][5] = {
+const double dep_dopri_c[6] = {0, 1.0 / 5, 3.0 / 10, 4.0 / 5, 8.0 / 9, 1};
+const double dep_dopri_a[6][5] = {
     {0},
     {1.0 / 5},
     {3.0 / 40, 9.0 / 40},
@@ -17,7 +17,7 @@ static const double A[6][5] = {
     {19372.0 / 6561, -25360.0 / 2187, 64448.0 / 6561, -212.0 / 729},
     {9017.0 / 3168, -355.0 / 33, 46732.0 / 5247, 49.0 / 176, -5103.0 / 18656},
 };
-static const double B[6] = {35.0 / 384, 0, 500.0 / 1113, 125.0 / 192, -2187.0 / 6784,
+const double dep_dopri_b[6] = {35.0 / 384, 0, 500.0 / 1113, 125.0 / 192, -2187.0 / 6784,
                             11.0 / 84};
 static const double E[7] = {-71.0 / 57600, 0, 71.0 / 16695, -71.0 / 1920, 17253.0 / 339200,
                             -22.0 / 525, 1.0 / 40};
@@ -97,10 +97,10 @@ void dep_dopri_step(dep_rk_step *rk, dep_rhs_function rhs, void *context, double
     rk->y0 = y0;
     memcpy(K, k1, (size_t)n * sizeof *K);
     for (int s = 1; s < 6; ++s) {
-        combine(A[s], s, K, n, y0, h, scratch);
-        rhs(context, t0 + C[s] * h, scratch, K + (size_t)s * (size_t)n);
+        combine(dep_dopri_a[s], s, K, n, y0, h, scratch);
+        rhs(context, t0 + dep_dopri_c[s] * h, scratch, K + (size_t)s * (size_t)n);
     }
-    combine(B, 6, K, n, y0, h, rk->y1);
+    combine(dep_dopri_b, 6, K, n, y0, h, rk->y1);
     rhs(context, t0 + h, rk->y1, K + 6 * (size_t)n);
     double num = 0.0, den = 0.0; /* scratch: the sixth stage's argument, also at t0 + h */
     for (int j = 0; j < n; ++j) {

@@ -131,6 +131,9 @@ typedef struct dep_rk_step {
 } dep_rk_step;
 
 int dep_rk_init(dep_rk_step *rk, int n, dep_arena *arena);
+/* Dormand & Prince's tableau: the stages' times c, their coefficients a and the weights b of
+   the fifth-order solution (the seventh stage is the step's end). */
+extern const double dep_dopri_c[6], dep_dopri_a[6][5], dep_dopri_b[6];
 void dep_dopri_step(dep_rk_step *rk, dep_rhs_function rhs, void *context, double t0,
                     const double *y0, const double *k1, double h, double *scratch);
 void dep_dense_components(const dep_rk_step *rk, double t, int first, int count, double *out);

@@ -129,6 +129,11 @@ dep_stats dep_tally_stats(const dep_tally *tally, long long integrations,
 
 /* ---- sensitivity.c: forward sensitivities (docs/method.md, 12) ------------------------- */
 
+/* Above this stiffness indicator (h |lambda|, dep_rk_step) a step's sensitivities are taken on
+   its own DOPRI stages (sensitivity.c): the classical fourth-order method is stable to
+   h |lambda| = 2.8 on the real axis, DOPRI to 3.3. */
+#define DEP_SENSITIVITY_STIFF 2.0
+
 typedef struct dep_sensitivity {
     int k;                 /* parameters followed (dep_settings.sensitivities); 0: none */
     int *params;           /* k: their indices into p */
@@ -136,6 +141,7 @@ typedef struct dep_sensitivity {
        at the start of the step followed last (t0 .. t1: the dense output); stage, k2 .. k4
        the Runge-Kutta stages */
     double *s, *ds, *s0, *ds0, *stage, *k2, *k3, *k4;
+    double *stages;        /* 6 x k x 2 nq: a DOPRI step's stages (sensitivity.c) */
     double t0, t1;
     double *dlam;          /* k x capacity: the multipliers' tangent at the last state solved */
     double *dM, *dH;       /* k x (nmz + 1), k x (nh + 1) x DEP_HINGE_PROPERTIES: constants */

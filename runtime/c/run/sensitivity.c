@@ -220,6 +220,51 @@ static int unsupported(dep_run *run, double t, const char *what)
 
 /* s over the accepted step from run->state to t1 (<= its end: an event's time), the states
    on the step's interpolant `end->data`. */
+/* s over a whole DOPRI step on its own stages (the stage states y0 + h sum a K of the step's
+   last integration): the sensitivities then share the step's stability, which a step held at
+   DOPRI's stability bound by a stiff mode needs (the classical method's bound is smaller). */
+static void dopri_stages(dep_run *run, const dep_rk_step *rk)
+{
+    dep_sensitivity *x = &run->sens;
+    int nq = run->nq, ny = rk->n;
+    size_t n = (size_t)x->k * 2 * (size_t)nq;
+    double h = rk->h, *Q = x->Q, *QD = x->QD;
+    memcpy(x->stages, x->ds0, n * sizeof(double));
+    for (int stage = 1; stage < 6; ++stage) {
+        const double *a = dep_dopri_a[stage];
+        for (int j = 0; j < nq; ++j) {
+            double dq = 0.0, dqd = 0.0;
+            for (int m = 0; m < stage; ++m) {
+                dq += a[m] * rk->K[(size_t)m * (size_t)ny + (size_t)j];
+                dqd += a[m] * rk->K[(size_t)m * (size_t)ny + (size_t)(nq + j)];
+            }
+            Q[j] = rk->y0[j] + h * dq;
+            QD[j] = rk->y0[nq + j] + h * dqd;
+        }
+        for (size_t j = 0; j < n; ++j) {
+            double sum = 0.0;
+            for (int m = 0; m < stage; ++m) {
+                sum += a[m] * x->stages[(size_t)m * n + j];
+            }
+            x->stage[j] = x->s0[j] + h * sum;
+        }
+        double t = rk->t0 + dep_dopri_c[stage] * h;
+        dep_sens_at_state(run, t, Q);
+        dep_sens_motion_tangent(run, t, Q, QD, x->stage, x->stages + (size_t)stage * n);
+    }
+    for (size_t j = 0; j < n; ++j) {
+        double sum = 0.0;
+        for (int m = 0; m < 6; ++m) {
+            sum += dep_dopri_b[m] * x->stages[(size_t)m * n + j];
+        }
+        x->s[j] = x->s0[j] + h * sum;
+    }
+}
+
+/* s over the accepted step from run->state to t1 (<= its end: an event's time), the states
+   on the step's interpolant `end->data`: the classical fourth-order method (two new states);
+   a whole DOPRI step held by a stiff mode (Hairer's indicator h |lambda| above
+   DEP_SENSITIVITY_STIFF) on its own stages instead. */
 int dep_sensitivity_step(dep_run *run, const dep_outcome *end, double t1)
 {
     dep_sensitivity *x = &run->sens;
@@ -240,16 +285,20 @@ int dep_sensitivity_step(dep_run *run, const dep_outcome *end, double t1)
     x->t0 = t0;
     x->t1 = t1;
     double *Q = x->Q, *QD = x->QD;
-    dep_interpolate(end->data, t0, step, nq, tm, Q, QD);
-    dep_sens_at_state(run, tm, Q);
-    for (size_t j = 0; j < n; ++j) {
-        x->stage[j] = x->s0[j] + 0.5 * h * x->ds0[j];
+    if (t1 == end->state.t && end->rk->stiffness > DEP_SENSITIVITY_STIFF) {
+        dopri_stages(run, end->rk);
+    } else {
+        dep_interpolate(end->data, t0, step, nq, tm, Q, QD);
+        dep_sens_at_state(run, tm, Q);
+        for (size_t j = 0; j < n; ++j) {
+            x->stage[j] = x->s0[j] + 0.5 * h * x->ds0[j];
+        }
+        dep_sens_motion_tangent(run, tm, Q, QD, x->stage, x->k2);
+        for (size_t j = 0; j < n; ++j) {
+            x->stage[j] = x->s0[j] + 0.5 * h * x->k2[j];
+        }
+        dep_sens_motion_tangent(run, tm, Q, QD, x->stage, x->k3);
     }
-    dep_sens_motion_tangent(run, tm, Q, QD, x->stage, x->k2);
-    for (size_t j = 0; j < n; ++j) {
-        x->stage[j] = x->s0[j] + 0.5 * h * x->k2[j];
-    }
-    dep_sens_motion_tangent(run, tm, Q, QD, x->stage, x->k3);
     if (t1 == end->state.t) {
         memcpy(Q, end->state.q, (size_t)nq * sizeof *Q);
         memcpy(QD, end->state.qd, (size_t)nq * sizeof *QD);
@@ -257,12 +306,15 @@ int dep_sensitivity_step(dep_run *run, const dep_outcome *end, double t1)
         dep_interpolate(end->data, t0, step, nq, t1, Q, QD);
     }
     dep_sens_at_state(run, t1, Q);
-    for (size_t j = 0; j < n; ++j) {
-        x->stage[j] = x->s0[j] + h * x->k3[j];
-    }
-    dep_sens_motion_tangent(run, t1, Q, QD, x->stage, x->k4);
-    for (size_t j = 0; j < n; ++j) {
-        x->s[j] = x->s0[j] + h / 6.0 * (x->ds0[j] + 2.0 * (x->k2[j] + x->k3[j]) + x->k4[j]);
+    if (!(t1 == end->state.t && end->rk->stiffness > DEP_SENSITIVITY_STIFF)) {
+        for (size_t j = 0; j < n; ++j) {
+            x->stage[j] = x->s0[j] + h * x->k3[j];
+        }
+        dep_sens_motion_tangent(run, t1, Q, QD, x->stage, x->k4);
+        for (size_t j = 0; j < n; ++j) {
+            x->s[j] = x->s0[j] + h / 6.0 * (x->ds0[j] + 2.0 * (x->k2[j] + x->k3[j])
+                                            + x->k4[j]);
+        }
     }
     dep_sens_project(run, t1, Q, QD, x->s);
     dep_sens_motion_tangent(run, t1, Q, QD, x->s, x->ds);

@@ -64,6 +64,7 @@ int dep_sensitivity_init(dep_run *run)
     for (size_t i = 0; i < sizeof state / sizeof *state; ++i) {
         *state[i] = dep_doubles(arena, k * n2);
     }
+    x->stages = dep_doubles(arena, 6 * k * n2);
     x->dlam = dep_doubles(arena, k * nc);
     x->dM = dep_doubles(arena, k * nmz);
     x->dH = dep_doubles(arena, k * nh * DEP_HINGE_PROPERTIES);
