@@ -105,9 +105,11 @@ def model_events(model: ir.Model) -> set[str]:
 
 
 def unit_scale(text: str, wanted: ir.Dim) -> float:
-    """The SI value of one `text` (a unit: "deg", "ms"; "" or "1": none), ValueError unless
-    its dimension is `wanted` (or none, for a dimensionless one)."""
-    if text.strip() in ("", "1"):
+    """The SI value of one `text` (a unit: "deg", "ms"; "": SI, "1": a plain number),
+    ValueError unless its dimension is `wanted`."""
+    if not text.strip():
+        return 1.0
+    if text.strip() == "1":
         scale, dim = 1.0, ir.Dim()
     else:
         scale, dim = parse_quantity(f"1 {text}")
