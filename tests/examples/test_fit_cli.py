@@ -5,6 +5,7 @@ and never an output file. The error cases call the CLI's `main` in this process 
 otherwise pay a Python start); one fit runs the real command."""
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -171,3 +172,9 @@ def test_bad_options_are_usage_errors(capsys, ground_test, tmp_path, options, me
 def test_no_data_is_a_usage_error(capsys):
     code, _, err = fit_cli(capsys, "--free", "h1.friction")
     assert code == 2 and "give the measured data" in err
+
+
+def test_the_calibration_figure_is_there():
+    text = (EXAMPLES.parent / "docs" / "calibration.md").read_text()
+    (figure,) = re.findall(r"!\[[^]]*\]\(([^)]*intelsat5-fit.png)\)", text)
+    assert (EXAMPLES.parent / "docs" / figure).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
