@@ -9,7 +9,7 @@ from importlib.metadata import version as _version
 
 __version__ = _version("depsim")  # pyproject.toml's, as installed
 
-__all__ = ["Model", "Simulator", "load", "sweep", "__version__"]
+__all__ = ["Model", "Simulator", "fit", "load", "sweep", "__version__"]
 
 
 def __getattr__(name: str):
@@ -18,4 +18,8 @@ def __getattr__(name: str):
         from depsim import api
 
         return getattr(api, name)
+    if name == "fit":
+        from depsim.calibration import fit
+
+        return fit
     raise AttributeError(f"module 'depsim' has no attribute '{name}'")

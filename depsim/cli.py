@@ -46,6 +46,7 @@ _OUTCOMES = (
     ("depsim.runtime.sweep.storage", "CheckpointError", "error", EXIT_USAGE),
     ("depsim.runtime.sweep.backends", "StudyError", "study stopped", EXIT_SOLVER),
     ("depsim.runtime.errors", "SolverError", "solver failure", EXIT_SOLVER),
+    ("depsim.runtime.fit", "FitError", "fit failed", EXIT_SOLVER),
 )
 
 
@@ -56,6 +57,10 @@ def _report(exc: Exception) -> int | None:
         from depsim.dsl import format_diagnostics
 
         print(format_diagnostics(exc.diagnostics, exc.source), file=sys.stderr, end="")
+        return EXIT_MODEL
+    data_error = _imported("depsim.errors", "DataError")
+    if data_error is not None and isinstance(exc, data_error):  # FILE:LINE: error: ...
+        print(exc, file=sys.stderr)
         return EXIT_MODEL
     for module, name, prefix, code in _OUTCOMES:
         kind = _imported(module, name)
@@ -193,7 +198,39 @@ def _parser() -> argparse.ArgumentParser:
     sweep.add_argument("--resume", action="store_true", help="complete an interrupted study")
     _add_elements(sweep)
     sweep.set_defaults(command=_sweep)
+    _fit_parser(commands)
     return parser
+
+
+def _fit_parser(commands) -> None:
+    fit = commands.add_parser("fit", help="calibrate a model's parameters to a ground test "
+                                          "(weighted least squares; docs/calibration.md)")
+    fit.add_argument("model", help="the .dep file")
+    fit.add_argument("--data", metavar="CSV", help="measured time histories: header "
+                                                   "'t [s], theta1 [deg], ...', then rows")
+    fit.add_argument("--latch-times", metavar="CSV",
+                     help="measured event times: rows 'event,t[,sigma]' (h1.latch,50.6)")
+    fit.add_argument("--free", action="append", default=[], metavar="NAME[=LOW:HIGH]",
+                     help="a parameter to fit, with optional bounds, units allowed "
+                          "(h1.friction=0.3:1.2N*m); repeatable")
+    fit.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                     help="override a parameter (a free one: its start), units allowed; "
+                          "repeatable")
+    fit.add_argument("--sigma", action="append", default=[], metavar="NAME=VALUE",
+                     help="the noise of a measured column, or of the event times "
+                          "(latch-times=0.02s), units allowed; without it, one noise per "
+                          "kind is estimated from the residuals; repeatable")
+    fit.add_argument("--target", choices=["numpy", "c"], default="c",
+                     help="c (default: compiled model) or numpy")
+    fit.add_argument("--t-end", type=_positive_float, metavar="T",
+                     help="end time of the runs (s; default the model's)")
+    fit.add_argument("--tol", type=_tolerance, metavar="TOL",
+                     help="integration tolerance, between 0 and 1")
+    fit.add_argument("-o", "--out", metavar="JSON", help="write the fit as JSON")
+    fit.add_argument("--plot", metavar="PNG", help="measured, fitted and start values with "
+                                                   "the residuals (.png, .pdf, .svg, ...)")
+    _add_elements(fit)
+    fit.set_defaults(command=_fit)
 
 
 def _add_view(parser: argparse.ArgumentParser, pictures: str) -> None:
@@ -271,17 +308,18 @@ def _elements(text: str) -> dict[str, str]:
     return counts
 
 
-def _settings(items: list[str]) -> dict[str, str]:
+def _settings(items: list[str], option: str = "--set",
+              example: str = "h2.friction=0.7") -> dict[str, str]:
     from depsim.errors import UsageError
 
     settings = {}
     for item in items:
         name, sep, value = item.partition("=")
         if not sep or not name.strip() or not value.strip():
-            raise UsageError(f"--set '{item}': expected NAME=VALUE, e.g. --set h2.friction=0.7")
+            raise UsageError(f"{option} '{item}': expected NAME=VALUE, e.g. {option} {example}")
         if name.strip() in settings:
-            raise UsageError(f"--set {name.strip()} is given twice ({settings[name.strip()]} "
-                             f"and {value.strip()}): give each parameter once")
+            raise UsageError(f"{option} {name.strip()} is given twice "
+                             f"({settings[name.strip()]} and {value.strip()}): give each once")
         settings[name.strip()] = value.strip()
     return settings
 
@@ -510,6 +548,28 @@ def _study(sim, args, out: str):
         if _report_as_is(exc):
             raise
         raise _usage(str(exc)) from exc
+
+
+def _fit(args) -> int:
+    import depsim
+    from depsim.runtime.output import all_or_none, check_output
+    from depsim.runtime.plot import PLOT_FORMATS
+
+    _check_outputs(args.model, [("-o", args.out, check_output),
+                                ("--plot", args.plot, lambda p: check_output(p, PLOT_FORMATS))])
+    settings = _settings(args.set)
+    sigma = _settings(args.sigma, "--sigma", "theta1=0.05deg")
+    model = _load(args)
+    sim = model.compile(target=args.target)
+    found = depsim.fit(sim, data=args.data, free=args.free, latch_times=args.latch_times,
+                       set=settings, sigma=sigma, tol=args.tol, t_end=args.t_end)
+    with all_or_none():
+        if args.out:
+            found.to_json(args.out)
+        if args.plot:
+            found.plot(args.plot)
+    print(found.report())
+    return EXIT_OK
 
 
 def _limits(items: list[str], module) -> dict[str, float]:

@@ -50,6 +50,22 @@ def read_table(path: str | Path) -> np.ndarray:
     return rows
 
 
+def content_lines(path: str | Path) -> list[tuple[int, str]]:
+    """The lines of a CSV file that have content, with their numbers (from 1): comments (`#`)
+    and blank lines skipped, a byte-order mark dropped, each stripped. ValueError `FILE: ...`
+    for a file that is missing, larger than MAX_TABLE_BYTES or not UTF-8 text."""
+    path = Path(path)
+    _check_file(path)
+    try:
+        with open(path, encoding="utf-8-sig") as handle:
+            numbered = [(number, _content(line)) for number, line in enumerate(handle, 1)]
+    except UnicodeDecodeError:
+        raise ValueError(f"{path}: cannot read: not UTF-8 text") from None
+    except OSError as exc:
+        raise ValueError(f"{path}: cannot read: {exc}") from None
+    return [(number, content) for number, content in numbered if content]
+
+
 def _check_file(path: Path) -> None:
     try:
         if not path.is_file():
