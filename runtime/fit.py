@@ -31,6 +31,11 @@ class FitError(RuntimeError):
     parameter values the message names (CLI exit code 3)."""
 
 
+class RefusedPointError(FitError):
+    """A point the model refuses (a range check) or whose run fails: a trial point of the
+    search is rejected (its step shrinks), the start point is an error."""
+
+
 class MissingEventError(FitError):
     """A measured event the run does not produce; `index` is its place in
     `Measurements.events`."""
@@ -125,13 +130,13 @@ class _Runs:
         self._last: tuple[bytes, _Evaluation | None] | None = None
 
     def at(self, x: np.ndarray) -> _Evaluation | None:
-        """The model at x; None for a trial point whose run misses a measured event (the
-        first point's miss raises MissingEventError)."""
+        """The model at x; None for a trial point whose run misses a measured event, that
+        the model refuses (a range check) or whose run fails (the first point's raises)."""
         key = np.asarray(x, dtype=float).tobytes()
         if self._last is None or self._last[0] != key:
             try:
                 found = self._evaluate(np.asarray(x, dtype=float))
-            except MissingEventError as exc:
+            except (MissingEventError, RefusedPointError) as exc:
                 if self._last is None:
                     raise
                 self.rejected.append(str(exc))
@@ -155,7 +160,7 @@ class _Runs:
         where = describe_point(self.free, x)
         problems = self.check(p) if self.check is not None else []
         if problems:
-            raise FitError(f"the fit reached {where}, which the model refuses: "
+            raise RefusedPointError(f"the fit reached {where}, which the model refuses: "
                            f"{'; '.join(problems)}; bound the parameters (--free "
                            "NAME=LOW:HIGH)")
         self.count += 1
@@ -164,7 +169,7 @@ class _Runs:
                               dt_out=self.settings.dt_out, tol=self.settings.tol,
                               sensitivities=[f.name for f in self.free])
         except (SolverError, ValueError) as exc:
-            raise FitError(f"the run at {where} failed: {exc}") from exc
+            raise RefusedPointError(f"the run at {where} failed: {exc}") from exc
         outputs, slopes = _at_times(result, self.data.times, self.columns)
         times, rates = _event_times(result, self.data.events, where)
         residuals = np.concatenate(((outputs - self.data.values).T.ravel(),
@@ -266,10 +271,11 @@ def fit(module, base: np.ndarray, free: Sequence[FreeParameter], data: Measureme
     residual (model - measured) over its noise; noise not given is estimated per kind from
     the residuals at the optimum (several kinds: fitted again with the estimates until they
     settle). `check(p)`: the model's range checks' messages for a parameter vector. A trial
-    point whose run misses a measured event is rejected (the trust region shrinks; listed in
-    FitResult.rejected). Raises MissingEventError when the run at the start misses one,
-    FitError when a run fails or reaches values the model refuses, NoiseError when the
-    noise cannot be estimated (no more values than free parameters)."""
+    point whose run misses a measured event, that the model refuses (a range check) or whose
+    run fails is rejected (the trust region shrinks; listed in FitResult.rejected). Raises
+    MissingEventError when the run at the start misses one, FitError when the start point
+    is refused or its run fails, NoiseError when the noise cannot be estimated (no more
+    values than free parameters)."""
     from scipy.optimize import least_squares
 
     started = time.perf_counter()

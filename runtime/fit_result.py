@@ -112,7 +112,7 @@ class FitResult:
     evaluations: int  # residual evaluations
     runs: int  # model runs (a point's residuals and Jacobian share one)
     wall_time: float  # s
-    rejected: tuple[str, ...]  # trial points rejected: their runs missed a measured event
+    rejected: tuple[str, ...]  # trial points rejected: an event missed, refused, run failed
     converged: bool
     status: str  # the least squares' termination
     t_end: float  # s, of the runs
@@ -198,8 +198,9 @@ class FitResult:
                  f"(dt_out {self.dt_out:g} s, t_end {self.t_end:g} s), "
                  f"{self.wall_time:.2f} s; cost {self.cost:.6g}"]
         if self.rejected:
-            lines.append(f"  {len(self.rejected)} trial point(s) rejected: their runs miss a "
-                         f"measured event; the first: {self.rejected[0]}")
+            lines.append(f"  {len(self.rejected)} trial point(s) rejected (a measured event "
+                         "missed, values the model refuses or a run that failed); the first: "
+                         f"{self.rejected[0]}")
         lines.append("")
         lines += _parameter_table(self)
         lines += ["", "correlation:"] + _correlation_table(self.parameters, self.correlation)

@@ -81,15 +81,25 @@ def test_an_unidentifiable_pair_is_flagged(capsys, ground_test):
     assert "correlation -1.0000 with pulley_r" in out
 
 
-def test_a_point_the_model_refuses_stops_the_fit(capsys, ground_test):
+def test_points_the_model_refuses_are_rejected(capsys, ground_test):
     """Without bounds, cable_k and pulley_r alone cannot explain the data and the search
-    reaches a negative cable stiffness: exit 3, naming the values."""
+    tries a negative cable stiffness: those trial points are rejected (the search steps
+    shorter) and the report says so; the pair stays unidentifiable."""
     data, _ = ground_test
-    code, _, err = fit_cli(capsys, "--data", data, "--free", "cable_k", "--free",
-                           "pulley_r", "--t-end", T_END)
-    assert code == 3, err
-    assert err.startswith("depsim: fit failed: the fit reached cable_k = ")
-    assert "which the model refuses" in err and "bound the parameters" in err
+    code, out, err = fit_cli(capsys, "--data", data, "--free", "cable_k", "--free",
+                             "pulley_r", "--t-end", T_END)
+    assert code == 0, err
+    assert "trial point(s) rejected" in out and "which the model refuses" in out
+    assert out.count("not identifiable from these data") == 2
+
+
+def test_a_start_the_model_refuses_is_a_usage_error(capsys, ground_test):
+    """A start value the model refuses is refused before any run, naming it."""
+    data, _ = ground_test
+    code, _, err = fit_cli(capsys, "--data", data, "--free", "cable_k", "--set",
+                           "cable_k=-5", "--t-end", T_END)
+    assert code == 2, err
+    assert "from cable_k=-5" in err
 
 
 def bad(tmp_path: Path, name: str, text: str) -> Path:
