@@ -9,12 +9,12 @@ from importlib.metadata import version as _version
 
 __version__ = _version("depsim")  # pyproject.toml's, as installed
 
-__all__ = ["Model", "Simulator", "fit", "load", "sweep", "__version__"]
+__all__ = ["Model", "Simulator", "fit", "load", "local_study", "sweep", "__version__"]
 
 
 def __getattr__(name: str):
     # The facade is imported on first use, so `import depsim.dsl` stays independent of it.
-    if name in ("Model", "Simulator", "load", "sweep"):
+    if name in ("Model", "Simulator", "load", "local_study", "sweep"):
         from depsim import api
 
         return getattr(api, name)

@@ -397,6 +397,36 @@ def _parameter_value(param: ir.Param, value: float | str) -> float:
     return value
 
 
+def local_study(sim: Simulator, samples, *, set=None, t_end=None, tol=None):
+    """A local sensitivity study (depsim.runtime.sweep.LocalStudy): one run with forward
+    sensitivities at the samples' means (the other parameters at their values, `set`
+    applied), the deployment metrics' derivatives there and their first-order spread from
+    the samples' standard deviations. `samples`: ["NAME=normal(MU,SIGMA)", ...] as for
+    `sweep`, values may carry units. A first look before a Monte Carlo (docs/calibration.md,
+    Local sensitivities)."""
+    from depsim.runtime.sweep import local_study as study_of, parse_sample
+
+    index = {name: i for i, name in enumerate(sim.parameter_names)}
+    items = [samples] if isinstance(samples, str) else list(samples or ())
+    if not items:
+        raise UsageError("a local study needs the parameters' spreads: --sample "
+                         "NAME=DIST(...)")
+
+    def quantity(name: str, text: str) -> float:
+        if name not in index:
+            raise UsageError(f"sample '{name}': not a parameter of the model")
+        return float(sim.parameters({name: text})[index[name]])
+
+    try:
+        spreads = [parse_sample(item, quantity) for item in items]
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    point = {**dict(set or {}), **{d.name: repr(d.mean) for d in spreads}}
+    result = sim.run(set=point, t_end=t_end, tol=tol,
+                     sensitivities=[d.name for d in spreads])
+    return study_of(result, {d.name: d.std for d in spreads})
+
+
 def sweep(sim: Simulator, *, grid=None, samples=None, runs=None, seed=None, metrics=None,
           t_end=None, dt_out=None, tol=None, time_grid=None, workers=None, scheduler=None,
           out=None, resume=False, progress=None, target="c"):

@@ -196,6 +196,10 @@ def _parser() -> argparse.ArgumentParser:
                             "confidence interval, e.g. --limit 'peak.h1.torque=8 N*m'; "
                             "repeatable")
     sweep.add_argument("--resume", action="store_true", help="complete an interrupted study")
+    sweep.add_argument("--local", action="store_true",
+                       help="instead of the study: one run with forward sensitivities at the "
+                            "samples' means, the metrics' derivatives there and the spread "
+                            "they predict to first order (a first look; no file written)")
     _add_elements(sweep)
     sweep.set_defaults(command=_sweep)
     _fit_parser(commands)
@@ -511,6 +515,8 @@ def _sweep(args) -> int:
     from depsim.runtime.sweep import plot_study, summarize
     from depsim.runtime.sweep.storage import check_store, partial_path
 
+    if args.local:
+        return _local_study(args)
     out = args.out or f"{Path(args.model).stem}-sweep.nc"
     _check_outputs(args.model, [("-o", out, check_store),
                                 ("--plot", args.plot, lambda p: check_output(p, PLOT_FORMATS))])
@@ -532,6 +538,30 @@ def _sweep(args) -> int:
                          "again") from exc
         raise
     print(f"wrote {out}")
+    return EXIT_OK
+
+
+def _local_study(args) -> int:
+    """sweep --local: the local sensitivity table of the samples' parameters."""
+    import depsim
+
+    ignored = [flag for flag, given in (("--grid", args.grid), ("--runs", args.runs),
+                                        ("--seed", args.seed), ("-o", args.out),
+                                        ("--plot", args.plot), ("--limit", args.limit),
+                                        ("--resume", args.resume),
+                                        ("--time-grid", args.time_grid),
+                                        ("--workers", args.workers),
+                                        ("--scheduler", args.scheduler)) if given]
+    if ignored:
+        raise _usage(f"--local takes the spreads of --sample alone; {', '.join(ignored)} "
+                     "belong to a study")
+    model = _load(args)
+    sim = model.compile(target=args.target)
+    try:
+        study = depsim.local_study(sim, args.sample, t_end=args.t_end, tol=args.tol)
+    except ValueError as exc:  # what the sensitivities cannot follow, said where it happens
+        raise _usage(str(exc)) from exc
+    print(study.text())
     return EXIT_OK
 
 

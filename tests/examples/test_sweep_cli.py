@@ -134,3 +134,21 @@ def test_a_limit_gives_the_probability_of_exceeding_it(cli, tmp_path):
                    limit, "-o", tmp_path / "x.nc")
         assert done.returncode == 2 and message in done.stderr, done.stderr
         assert not (tmp_path / "x.nc").exists() and "Traceback" not in done.stderr
+
+
+def test_local_study_prints_the_first_order_table(cli, tmp_path):
+    """sweep --local: one run with sensitivities at the samples' means; the derivatives are
+    the run's (tests/runtime/test_local_study.py checks them against a Monte Carlo)."""
+    done = cli("sweep", EXAMPLES / "intelsat5.dep", "--sample", "h1.friction=normal(0.68,0.068)",
+               "--sample", "h1.preload=normal(1.7 N*m, 0.17 N*m)", "--local", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert "h1.preload = 1.7 +- 0.17 (1 sigma)" in done.stdout
+    assert "time_to_deploy" in done.stdout and "d/d h1.friction" in done.stdout
+    assert list(tmp_path.iterdir()) == []  # nothing written
+    done = cli("sweep", EXAMPLES / "intelsat5.dep", "--sample", "h1.friction=normal(1,0.1)",
+               "--runs", "10", "--local")
+    assert done.returncode == 2 and "--runs" in done.stderr
+    done = cli("sweep", EXAMPLES / "free_flyer.dep", "--sample", "h1.friction=normal(1,0.1)",
+               "--local")
+    assert done.returncode == 2 and "spring kick" in done.stderr
+    assert "Traceback" not in done.stderr
