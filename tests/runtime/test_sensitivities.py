@@ -185,6 +185,58 @@ output z = panel.z
         assert_agrees(result.sensitivities.outputs[:, j, :], reference, f"d outputs / d {name}")
 
 
+# ---- stick-slip and compliant latches ------------------------------------------------------
+
+SPIN = """
+model spin "a spinning bar that friction stops"
+bar rod { length = 1 m; mass = 3 kg; inertia = 0.25 kg*m^2 }
+hinge pivot joins ground.origin to rod.a {
+    friction = 0.4 N*m
+    static_friction = 0.5 N*m
+}
+initial { pivot.rate = 2 rad/s }
+simulate { t_end = 7 s; tol = 1e-10; dt_out = 0.01 s }
+output theta = pivot
+"""
+
+
+def test_sliding_to_a_stick_against_the_closed_form(tmp_path):
+    """A bar spinning at w about its pivot (I_O = I + m (L/2)^2) under Coulomb friction F
+    stops at t* = w I_O / F after turning w^2 I_O / 2F and sticks: d t*/dF = -w I_O / F^2,
+    d t*/dw = I_O / F, d theta_final / dF = -w^2 I_O / 2 F^2 (the rate condition of the slip
+    to stick transition, docs/method.md 12)."""
+    sim = compile_text(tmp_path, "spin", SPIN)
+    result = sim.run(sensitivities=["pivot.friction", "pivot.initial_rate"])
+    inertia, w, friction = 0.25 + 3 * 0.5 ** 2, 2.0, 0.4
+    stick = [k for k, e in enumerate(result.events) if e.name == "pivot.stick"]
+    assert len(stick) == 1
+    s = result.sensitivities
+    assert s.event_time(stick[0], "pivot.friction") == pytest.approx(
+        -w * inertia / friction ** 2, rel=1e-7)
+    assert s.event_time(stick[0], "pivot.initial_rate") == pytest.approx(
+        inertia / friction, rel=1e-7)
+    assert s.output("theta", "pivot.friction")[-1] == pytest.approx(
+        -w * w * inertia / (2 * friction ** 2), rel=1e-7)
+
+
+def test_stuck_until_the_input_overcomes_static_friction():
+    """Held by static friction until the input's torque T + T.rate t reaches it: the slip's
+    time moves by 1 / T.rate per unit of static friction and by -t / T.rate per unit of
+    T.rate (the multiplier's condition, its rate along the motion with the input's)."""
+    sim = depsim.load("tests/runtime/models/stuck.dep").compile("c")
+    base = {"T": 0.5, "T.rate": 1.0}
+    names = ["pivot.static_friction", "T.rate", "pivot.friction"]
+    result = sim.run(set=base, sensitivities=names)
+    slip = [k for k, e in enumerate(result.events) if e.name == "pivot.slip" and e.t > 0]
+    assert len(slip) == 1 and result.events[slip[0]].t == pytest.approx(0.5, rel=1e-9)
+    s = result.sensitivities
+    assert s.event_time(slip[0], "pivot.static_friction") == pytest.approx(1.0, rel=1e-7)
+    assert s.event_time(slip[0], "T.rate") == pytest.approx(-0.5, rel=1e-7)
+    for k, name in enumerate(names):
+        reference, _ = finite_difference(sim, name, set=base)
+        assert_agrees(s.outputs[:, k, :], reference, f"d theta / d {name}", agreement=1e-4)
+
+
 # ---- what they do not follow: clear errors, never a wrong value -----------------------------
 
 def test_unknown_parameter_is_refused(pendulum):
@@ -192,12 +244,33 @@ def test_unknown_parameter_is_refused(pendulum):
         pendulum.run(t_end=0.1, sensitivities=["nope"])
 
 
-def test_stick_slip_transition_is_refused():
-    """Held by static friction until the input's torque reaches it at t = 0.5 s: the slip's
-    transition is refused where it happens."""
-    sim = depsim.load("tests/runtime/models/stuck.dep").compile("c")
-    with pytest.raises(ValueError, match="t = 0.5 s: .*pivot.slip.* a stick-slip transition"):
-        sim.run(sensitivities=["pivot.friction"], set={"T": 0.5, "T.rate": 1.0})
+def test_an_event_callback_is_refused(pendulum):
+    """A callback may change the run in any way: the sensitivities stop there, saying so."""
+    from depsim.runtime import Event, EventResponse
+
+    halfway = Event("halfway", lambda t, q, qd: t - 0.5,
+                    callback=lambda hit: EventResponse(qd=hit.qd * 0.5))
+    with pytest.raises(ValueError, match="t = 0.5.* callback"):
+        depsim.runtime.simulate(pendulum.tangent_module(), t_end=1.0, events=[halfway],
+                                sensitivities=["L"])
+
+
+def test_compliant_latch_contact_is_refused(tmp_path):
+    """A compliant latch's push switches inside a contact where no event marks it: the
+    sensitivities stop at the contact, saying so."""
+    sim = compile_text(tmp_path, "bounce", """
+model bounce "a panel meeting a compliant latch"
+bar panel { length = 1 m; mass = 2 kg; inertia = 0.2 kg*m^2 }
+hinge h joins ground.origin to panel.a {
+    angle = panel - ground
+    preload = 1 N*m
+    latch = 90 deg
+    latch_stiffness = 200 N*m/rad
+}
+simulate { t_end = 4 s; tol = 1e-9; dt_out = 0.01 s }
+""")
+    with pytest.raises(ValueError, match="h.latch.* a compliant latch's contact"):
+        sim.run(sensitivities=["h.preload"])
 
 
 def test_one_sided_spring_is_refused():

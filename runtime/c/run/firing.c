@@ -201,9 +201,15 @@ static int fire(dep_run *run, int k, double t_event, double side, int *stop)
     int status = DEP_OK;
     if (t_event - run->state.t > run->h_min) {
         status = retake(run, event, &t_event, &here);
+        if (status == DEP_OK) {
+            status = dep_sensitivity_retake(run, &run->fired);
+        }
     }
     if (status != DEP_OK) {
         return status;
+    }
+    if ((status = dep_sensitivity_prepare_event(run, k, here)) != DEP_OK) {
+        return status; /* (before the modes change: the state the event happens in) */
     }
     run->watch.hits[k]++;
     run->tally.events++;

@@ -15,7 +15,8 @@
  *   firing.c     events: located, the step re-taken to them, fired
  *   inputs.c     inputs: time tables piece by piece, values set from outside
  *   tangents.c   the motion's tangent along the forward sensitivities, their projection
- *   sensitivity.c  forward sensitivities along a run: steps, events, outputs, the result
+ *   sensitivity.c  forward sensitivities along a run: the start, steps, outputs, the result
+ *   jumps.c      forward sensitivities across events: event times, jumps
  *   run.c        a run set up, begun, advanced, finished and freed
  *   snapshot.c   a run's state saved and restored (its memory, or its calls replayed)
  */
@@ -162,6 +163,10 @@ typedef struct dep_sensitivity {
     double *out_q, *out_y, *w, *dw, *energy, *torques;
     double *event_times;
     int event_capacity;
+    /* the event being fired (jumps.c): its hinge, angular rate and acceleration, its stick or
+       stop row (-1: none) with the row's multiplier, its tangents (k) and rate */
+    int event_hinge, event_row;
+    double event_rate, event_acceleration, event_lam, event_lam_rate, *event_dlam;
 } dep_sensitivity;
 
 /* tangents.c: the memory and the constants of the run's sensitivities (none: k = 0) */
@@ -175,6 +180,14 @@ void dep_sens_solve_motion(dep_run *run, const double *r1, const double *r2, dou
                            double *y);
 /* sens->dJ: the active rows' Jacobian's tangent along (dq, sens->dp) */
 void dep_sens_jacobian_tangent(dep_run *run, double t, const double *q, const double *dq);
+/* lambda, qdd of the motion at the state (sens->lam, qdd; once for each at_state) */
+void dep_sens_motion_base(dep_run *run, double t, const double *q, const double *qd);
+/* After dep_sens_motion_base: the tangent of the motion along (dq, dqd) and sens->dp, with the
+   hinge properties' and the mass matrix's tangents dH, dM (NULL: none): out = (dqd, dqdd),
+   dlam the multipliers' */
+void dep_sens_direction(dep_run *run, double t, const double *q, const double *qd,
+                        const double *dq, const double *dqd, const double *dH,
+                        const double *dM, double *out, double *dlam);
 /* lambda, qdd of the motion at the state (sens->lam, qdd) and, for every parameter, the rate ds
    of the sensitivities s and the multipliers' tangent (sens->dlam) */
 void dep_sens_motion_tangent(dep_run *run, double t, const double *q, const double *qd,
@@ -183,11 +196,18 @@ void dep_sens_motion_tangent(dep_run *run, double t, const double *q, const doub
 void dep_sens_project(dep_run *run, double t, const double *q, const double *qd, double *s);
 /* The added rows' angle sensitivities after the rows changed (new rows: at q) */
 void dep_sens_rows_changed(dep_run *run, const double *q);
+/* The event records from `first` on: their times' sensitivities dtau (k; NULL: 0) */
+int dep_sens_event_times(dep_run *run, int first, const double *dtau);
+/* A SETTINGS error: what the sensitivities cannot follow at t */
+int dep_sens_unsupported(dep_run *run, double t, const char *what);
 /* sensitivity.c: along the run */
 int dep_sensitivity_begin(dep_run *run);
 int dep_sensitivity_step(dep_run *run, const dep_outcome *end, double t1);
+int dep_sensitivity_retake(dep_run *run, const dep_outcome *fired);
 int dep_sensitivity_record(dep_run *run, int row, double t, const double *q, const double *qd,
                            const double *lam, const double *work);
+/* jumps.c */
+int dep_sensitivity_prepare_event(dep_run *run, int index, const dep_state *before);
 int dep_sensitivity_event(dep_run *run, int index, double t_event, const dep_state *before,
                           int first, int stopped);
 int dep_sensitivity_result(dep_run *run, dep_result *result);

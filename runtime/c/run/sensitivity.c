@@ -19,8 +19,6 @@
 
 #include "run.h"
 
-static int event_record_time(dep_run *run, int first, const double *dtau);
-
 /* ---- a run's sensitivities ----------------------------------------------------------------- */
 
 /* x (n) of least norm with A x = b (A: rows x n, row-major) in the least-squares sense, by
@@ -201,7 +199,7 @@ int dep_sensitivity_begin(dep_run *run)
     dep_sens_project(run, s->t, s->q, s->qd, x->s);
     dep_sens_motion_tangent(run, s->t, s->q, s->qd, x->s, x->ds);
     x->t0 = x->t1 = s->t;
-    status = event_record_time(run, 0, NULL); /* the records at t = 0: a fixed time */
+    status = dep_sens_event_times(run, 0, NULL); /* the records at t = 0: a fixed time */
     if (status != DEP_OK) {
         return status;
     }
@@ -210,13 +208,6 @@ int dep_sensitivity_begin(dep_run *run)
     return DEP_OK;
 }
 
-/* A failure of the sensitivities' own: the step method they cannot follow. */
-static int unsupported(dep_run *run, double t, const char *what)
-{
-    char message[400];
-    snprintf(message, sizeof message, "sensitivities at t = %.9g s: %s", t, what);
-    return dep_plain_error(run->error, DEP_SETTINGS_ERROR, message);
-}
 
 /* s over the accepted step from run->state to t1 (<= its end: an event's time), the states
    on the step's interpolant `end->data`. */
@@ -276,7 +267,7 @@ int dep_sensitivity_step(dep_run *run, const dep_outcome *end, double t1)
     size_t n = (size_t)x->k * 2 * (size_t)nq;
     double t0 = start->t, h = t1 - t0, step = end->state.t - t0, tm = t0 + 0.5 * h;
     if (end->rk->method == DEP_ROSENBROCK) {
-        return unsupported(run, t0, "the run takes the linearly implicit step here (stiff "
+        return dep_sens_unsupported(run, t0, "the run takes the linearly implicit step here (stiff "
                            "elastic forces), which they do not follow yet; run with "
                            "stepping='explicit'");
     }
@@ -319,6 +310,23 @@ int dep_sensitivity_step(dep_run *run, const dep_outcome *end, double t1)
     dep_sens_project(run, t1, Q, QD, x->s);
     dep_sens_motion_tangent(run, t1, Q, QD, x->s, x->ds);
     return DEP_OK;
+}
+
+/* The step to an event taken again (firing.c, retake): s from the step's start over the step
+   re-taken to the event. The first pass at it followed the step that crossed the event, whose
+   interpolant spans the change of the force law the event marks (a compliant latch's push
+   reaching 0 where its contact ends): the outputs before the event were recorded from it, as
+   the run's own are. */
+int dep_sensitivity_retake(dep_run *run, const dep_outcome *fired)
+{
+    dep_sensitivity *x = &run->sens;
+    if (x->k == 0) {
+        return DEP_OK;
+    }
+    size_t n = (size_t)x->k * 2 * (size_t)run->nq;
+    memcpy(x->s, x->s0, n * sizeof(double));
+    memcpy(x->ds, x->ds0, n * sizeof(double));
+    return dep_sensitivity_step(run, fired, fired->state.t);
 }
 
 /* s at t in the step followed last: the cubic Hermite interpolant of its ends. */
@@ -381,167 +389,6 @@ int dep_sensitivity_record(dep_run *run, int row, double t, const double *q, con
                            dlam, x->dw, x->out_y + ((size_t)row * k + i) * nout);
         x->dp[x->params[i]] = 0.0;
     }
-    return DEP_OK;
-}
-
-/* ---- events -------------------------------------------------------------------------------- */
-
-static int event_record_time(dep_run *run, int first, const double *dtau)
-{
-    dep_sensitivity *x = &run->sens;
-    size_t k = (size_t)x->k;
-    if (run->n_records > x->event_capacity) {
-        int capacity = 2 * run->n_records + 8;
-        double *times = dep_doubles(&run->arena, (size_t)capacity * k);
-        if (times == NULL) {
-            return dep_plain_error(run->error, DEP_MEMORY_ERROR, "out of memory");
-        }
-        if (x->event_capacity > 0) {
-            memcpy(times, x->event_times, (size_t)x->event_capacity * k * sizeof *times);
-        }
-        for (size_t j = (size_t)x->event_capacity * k; j < (size_t)capacity * k; ++j) {
-            times[j] = NAN;
-        }
-        x->event_times = times;
-        x->event_capacity = capacity;
-    }
-    for (int r = first; r < run->n_records; ++r) {
-        for (size_t i = 0; i < k; ++i) {
-            x->event_times[(size_t)r * k + i] = dtau != NULL ? dtau[i] : 0.0;
-        }
-    }
-    return DEP_OK;
-}
-
-/* Event `index` of the watch fired at t_event: `before` the state it happened in, run->state
-   the state after it (its rows, its restart), the records from `first` on its own. dtau and
-   the jump of s; `stopped`: the run ends here (only dtau). */
-int dep_sensitivity_event(dep_run *run, int index, double t_event, const dep_state *before,
-                          int first, int stopped)
-{
-    dep_sensitivity *x = &run->sens;
-    const dep_model *m = run->model;
-    if (x->k == 0) {
-        return DEP_OK;
-    }
-    if (index < run->n_user_events && stopped) {
-        return DEP_OK; /* a user's terminal event: its time's sensitivity is not known */
-    }
-    if (index < run->n_user_events) {
-        return unsupported(run, t_event, "an event with a callback changes the run in ways "
-                           "they cannot follow");
-    }
-    const dep_mechanism_event *info = &run->mechanism->info[index - run->n_user_events];
-    const dep_hinge_mechanics *hm = info->hinge;
-    int h = hm->index, kind = info->kind, nq = run->nq;
-    size_t k = (size_t)x->k, n2 = 2 * (size_t)nq, nh1 = (size_t)m->nh + 1;
-    const char *refused = NULL;
-    for (int r = first; r < run->n_records && refused == NULL; ++r) {
-        int rk = run->records[r].kind;
-        refused = rk == DEP_RECORD_STICK || rk == DEP_RECORD_SLIP ? "a stick-slip transition"
-            : rk == DEP_RECORD_LATCH_SEPARATION ? "a compliant latch letting go"
-            : rk == DEP_RECORD_STOP && run->records[r].hinge >= 0 && !stopped
-                && run->system.hinges[run->records[r].hinge].stop == DEP_STOP_NONE
-                ? "a hinge leaving its stop"
-            : rk != DEP_RECORD_LATCH && rk != DEP_RECORD_LATCH_CONTACT && rk != DEP_RECORD_STOP
-                && rk != DEP_RECORD_RELEASE ? "a transition of this kind" : NULL;
-        if (refused != NULL) {
-            char what[DEP_NAME_MAX + 160];
-            snprintf(what, sizeof what, "event '%.*s' is %s, which they do not follow yet",
-                     DEP_NAME_MAX, run->records[r].name, refused);
-            return unsupported(run, t_event, what);
-        }
-    }
-    /* dtau: g = theta - angle (a latch, a stop reached), or t - release */
-    double dtau[64], *dt = k <= 64 ? dtau : malloc(k * sizeof *dt);
-    if (dt == NULL) {
-        return dep_plain_error(run->error, DEP_MEMORY_ERROR, "out of memory");
-    }
-    double rate = 0.0;
-    if (kind != DEP_KIND_HOLD) {
-        m->hinge_rates(before->q, before->qd, run->p, x->rate);
-        rate = x->rate[h];
-    }
-    for (size_t i = 0; i < k; ++i) {
-        const double *dh = x->dH + (i * nh1 + (size_t)h) * DEP_HINGE_PROPERTIES;
-        if (kind == DEP_KIND_HOLD) {
-            dt[i] = dh[DEP_HINGE_RELEASE];
-            continue;
-        }
-        double angle = kind == DEP_KIND_LATCH ? dh[DEP_HINGE_LATCH]
-            : kind == DEP_KIND_STOP_MAX ? dh[DEP_HINGE_STOP_MAX] : dh[DEP_HINGE_STOP_MIN];
-        x->dp[x->params[i]] = 1.0;
-        m->hinge_angles_tangent(before->q, run->p, x->s + i * n2, x->dp, x->dtheta);
-        x->dp[x->params[i]] = 0.0;
-        dt[i] = -(x->dtheta[h] - angle) / rate;
-    }
-    int status = event_record_time(run, first, dt);
-    if (status != DEP_OK || stopped) {
-        if (dt != dtau) {
-            free(dt);
-        }
-        return status;
-    }
-    /* the jump: D x- = s- + x'- dtau; q continuous; qd+ by the impact onto the new rows */
-    const dep_state *after = &run->state;
-    dep_sens_rows_changed(run, after->q);
-    dep_sens_at_state(run, t_event, after->q);
-    int impact = 0;
-    for (int j = 0; j < nq; ++j) {
-        impact |= after->qd[j] != before->qd[j];
-    }
-    if (impact) { /* mu: M qd+ + J^T mu = M qd-, J qd+ = -Phi_t */
-        dep_cs_phi_t(&run->cs, after->q, t_event, x->b);
-        dep_cs_times(&run->cs, x->J, before->qd, x->gamma);
-        for (int a = 0; a < run->cs.nc; ++a) {
-            x->gamma[a] += x->b[a];
-        }
-        dep_sens_schur(run, x->gamma, x->lam);
-    }
-    for (size_t i = 0; i < k; ++i) {
-        double *dq = x->s + i * n2, *dqd = dq + nq;
-        for (int j = 0; j < nq; ++j) {
-            x->Dq[j] = dq[j] + before->qd[j] * dt[i];
-            x->Dqd[j] = dqd[j] + before->qdd[j] * dt[i];
-        }
-        if (impact) {
-            const dep_mass *mass = &run->system.mass;
-            x->dp[x->params[i]] = 1.0;
-            dep_sens_jacobian_tangent(run, t_event, after->q, x->Dq);
-            memset(x->r1, 0, (size_t)nq * sizeof(double));
-            for (int e = 0; e < m->nmz; ++e) { /* M D qd- + dM (qd- - qd+) - dJ^T mu */
-                int row = m->mass_rows[e], col = m->mass_cols[e];
-                x->r1[row] += mass->values[e] * x->Dqd[col] + x->dM[i * ((size_t)m->nmz + 1) + e]
-                    * (before->qd[col] - after->qd[col]);
-            }
-            dep_cs_transpose_times(&run->cs, x->dJ, x->lam, x->u);
-            for (int j = 0; j < nq; ++j) {
-                x->r1[j] -= x->u[j];
-            }
-            m->phi_t_tangent(after->q, t_event, run->p, x->Dq, x->dp, x->r2);
-            for (int a = run->cs.nc_module; a < run->cs.nc; ++a) {
-                x->r2[a] = 0.0;
-            }
-            dep_cs_times(&run->cs, x->dJ, after->qd, x->b);
-            for (int a = 0; a < run->cs.nc; ++a) {
-                x->r2[a] = -(x->r2[a] + x->b[a]);
-            }
-            dep_sens_solve_motion(run, x->r1, x->r2, x->Dqd, x->gamma);
-            x->dp[x->params[i]] = 0.0;
-        }
-        for (int j = 0; j < nq; ++j) {
-            dq[j] = x->Dq[j] - after->qd[j] * dt[i];
-            dqd[j] = x->Dqd[j] - after->qdd[j] * dt[i];
-        }
-    }
-    if (dt != dtau) {
-        free(dt);
-    }
-    dep_sens_project(run, t_event, after->q, after->qd, x->s);
-    dep_sens_motion_tangent(run, t_event, after->q, after->qd, x->s, x->ds);
-    x->t0 = x->t1 = t_event;
-    memcpy(x->s0, x->s, k * n2 * sizeof(double));
-    memcpy(x->ds0, x->ds, k * n2 * sizeof(double));
     return DEP_OK;
 }
 

@@ -65,6 +65,7 @@ int dep_sensitivity_init(dep_run *run)
         *state[i] = dep_doubles(arena, k * n2);
     }
     x->stages = dep_doubles(arena, 6 * k * n2);
+    x->event_dlam = dep_doubles(arena, k);
     x->dlam = dep_doubles(arena, k * nc);
     x->dM = dep_doubles(arena, k * nmz);
     x->dH = dep_doubles(arena, k * nh * DEP_HINGE_PROPERTIES);
@@ -180,20 +181,20 @@ void dep_sens_jacobian_tangent(dep_run *run, double t, const double *q, const do
 /* The hinge torques' tangent along (dq, dqd, dp) for parameter i: dtau (nh) from the torques
    x->tau, rates and angles at the state (laws.c: friction by its law in the hinge's mode, a
    compliant latch's push while in contact). */
-static void torque_tangent(dep_run *run, int i, const double *q, const double *qd,
+static void torque_tangent(dep_run *run, const double *dH, const double *q, const double *qd,
                            const double *dq, const double *dqd)
 {
     dep_sensitivity *x = &run->sens;
     const dep_model *m = run->model;
     const dep_system *system = &run->system;
-    const double *dH = x->dH + (size_t)i * ((size_t)m->nh + 1) * DEP_HINGE_PROPERTIES;
+    static const double none[DEP_HINGE_PROPERTIES];
     m->hinge_rates_tangent(q, qd, run->p, dq, dqd, x->dp, x->drate);
     if (system->n_compliant > 0) {
         m->hinge_angles_tangent(q, run->p, dq, x->dp, x->dtheta);
     }
     for (int h = 0; h < m->nh; ++h) {
         const dep_hinge_mechanics *hm = &system->hinges[h];
-        const double *dh = dH + (size_t)h * DEP_HINGE_PROPERTIES;
+        const double *dh = dH != NULL ? dH + (size_t)h * DEP_HINGE_PROPERTIES : none;
         double r = x->rate[h], d = 0.0;
         if (hm->has_friction && !dep_hinge_locked(hm) && !hm->stuck) {
             double dF = dh[DEP_HINGE_FRICTION];
@@ -221,70 +222,89 @@ static void torque_tangent(dep_run *run, int i, const double *q, const double *q
 /* At (t, q, qd) of the active rows, J from at_state: lambda and qdd of the motion (x->lam,
    x->qdd), and for each parameter the tangent ds (k x 2 nq) of the sensitivities s and the
    multipliers' dlambda (x->dlam). */
-void dep_sens_motion_tangent(dep_run *run, double t, const double *q, const double *qd,
-                           const double *s, double *ds)
+void dep_sens_motion_base(dep_run *run, double t, const double *q, const double *qd)
 {
     dep_sensitivity *x = &run->sens;
     const dep_model *m = run->model;
     const dep_system *system = &run->system;
     dep_constraints *cs = &run->cs;
-    int nq = run->nq, nc = cs->nc, n2 = 2 * nq, forcing = dep_hinge_forcing(system);
-    size_t nmz = (size_t)m->nmz + 1;
-    if (x->base_id != x->J_id) { /* the motion at this state (every caller passes the same
-                                     qd with the same J: at_state's identity keys it) */
-        dep_system_force(system, q, qd, t, x->f);
-        dep_cs_gamma(cs, q, qd, t, x->gamma);
-        dep_sens_solve_motion(run, x->f, x->gamma, x->qdd, x->lam);
-        if (forcing || cs->n_added > 0) {
-            m->hinge_jacobian(q, run->p, x->Jh);
-        }
-        if (forcing) {
-            dep_hinge_torques(system, q, qd, NULL, x->tau);
-            m->hinge_rates(q, qd, run->p, x->rate);
-            m->hinge_angles(q, run->p, x->theta);
-        }
-        x->base_id = x->J_id;
+    int forcing = dep_hinge_forcing(system);
+    if (x->base_id == x->J_id) { /* every caller passes the same qd with the same J */
+        return;
     }
-    for (int i = 0; i < x->k; ++i) {
-        const double *dq = s + (size_t)i * n2, *dqd = dq + nq;
-        double *out = ds + (size_t)i * n2, *dlam = x->dlam + (size_t)i * cs->capacity;
-        x->dp[x->params[i]] = 1.0;
-        m->force_tangent(q, qd, t, run->p, dq, dqd, x->dp, x->r1);
-        dep_sens_jacobian_tangent(run, t, q, dq);
-        if (forcing) {
-            torque_tangent(run, i, q, qd, dq, dqd);
-            dep_hinge_transpose_times(system, x->Jh, x->dtau, x->u);
-            if (cs->n_added == 0) {
-                m->hinge_jacobian_tangent(q, run->p, dq, x->dp, x->dJh);
-            }
-            dep_hinge_transpose_times(system, x->dJh, x->tau, x->v);
-            for (int j = 0; j < nq; ++j) {
-                x->r1[j] += x->u[j] + x->v[j];
-            }
+    dep_system_force(system, q, qd, t, x->f);
+    dep_cs_gamma(cs, q, qd, t, x->gamma);
+    dep_sens_solve_motion(run, x->f, x->gamma, x->qdd, x->lam);
+    if (forcing || cs->n_added > 0) {
+        m->hinge_jacobian(q, run->p, x->Jh);
+    }
+    if (forcing) {
+        dep_hinge_torques(system, q, qd, NULL, x->tau);
+        m->hinge_rates(q, qd, run->p, x->rate);
+        m->hinge_angles(q, run->p, x->theta);
+    }
+    x->base_id = x->J_id;
+}
+
+void dep_sens_direction(dep_run *run, double t, const double *q, const double *qd,
+                        const double *dq, const double *dqd, const double *dH,
+                        const double *dM, double *out, double *dlam)
+{
+    dep_sensitivity *x = &run->sens;
+    const dep_model *m = run->model;
+    const dep_system *system = &run->system;
+    dep_constraints *cs = &run->cs;
+    int nq = run->nq, nc = cs->nc;
+    m->force_tangent(q, qd, t, run->p, dq, dqd, x->dp, x->r1);
+    dep_sens_jacobian_tangent(run, t, q, dq);
+    if (dep_hinge_forcing(system)) {
+        torque_tangent(run, dH, q, qd, dq, dqd);
+        dep_hinge_transpose_times(system, x->Jh, x->dtau, x->u);
+        if (cs->n_added == 0) {
+            m->hinge_jacobian_tangent(q, run->p, dq, x->dp, x->dJh);
         }
-        dep_cs_transpose_times(cs, x->dJ, x->lam, x->u);
+        dep_hinge_transpose_times(system, x->dJh, x->tau, x->v);
         for (int j = 0; j < nq; ++j) {
-            x->r1[j] -= x->u[j];
+            x->r1[j] += x->u[j] + x->v[j];
         }
-        const double *dM = x->dM + (size_t)i * nmz;
-        for (int e = 0; e < m->nmz; ++e) {
-            x->r1[m->mass_rows[e]] -= dM[e] * x->qdd[m->mass_cols[e]];
+    }
+    dep_cs_transpose_times(cs, x->dJ, x->lam, x->u);
+    for (int j = 0; j < nq; ++j) {
+        x->r1[j] -= x->u[j];
+    }
+    for (int e = 0; dM != NULL && e < m->nmz; ++e) {
+        x->r1[m->mass_rows[e]] -= dM[e] * x->qdd[m->mass_cols[e]];
+    }
+    m->gamma_tangent(q, qd, t, run->p, dq, dqd, x->dp, x->r2);
+    if (cs->n_added > 0) {
+        m->hinge_gamma_tangent(q, qd, run->p, dq, dqd, x->dp, x->gamma_h);
+        for (int r = 0; r < cs->n_added; ++r) {
+            const dep_added_row *row = &cs->added[r];
+            x->r2[cs->nc_module + r] = row->kind == DEP_ROW_LINEAR ? 0.0
+                                                                   : x->gamma_h[row->hinge];
         }
-        m->gamma_tangent(q, qd, t, run->p, dq, dqd, x->dp, x->r2);
-        if (cs->n_added > 0) {
-            m->hinge_gamma_tangent(q, qd, run->p, dq, dqd, x->dp, x->gamma_h);
-            for (int r = 0; r < cs->n_added; ++r) {
-                const dep_added_row *row = &cs->added[r];
-                x->r2[cs->nc_module + r] = row->kind == DEP_ROW_LINEAR ? 0.0
-                                                                       : x->gamma_h[row->hinge];
-            }
-        }
-        dep_cs_times(cs, x->dJ, x->qdd, x->b);
-        for (int a = 0; a < nc; ++a) {
-            x->r2[a] -= x->b[a];
-        }
-        memcpy(out, dqd, (size_t)nq * sizeof *out);
-        dep_sens_solve_motion(run, x->r1, x->r2, out + nq, dlam);
+    }
+    dep_cs_times(cs, x->dJ, x->qdd, x->b);
+    for (int a = 0; a < nc; ++a) {
+        x->r2[a] -= x->b[a];
+    }
+    memcpy(out, dqd, (size_t)nq * sizeof *out);
+    dep_sens_solve_motion(run, x->r1, x->r2, out + nq, dlam);
+}
+
+void dep_sens_motion_tangent(dep_run *run, double t, const double *q, const double *qd,
+                             const double *s, double *ds)
+{
+    dep_sensitivity *x = &run->sens;
+    const dep_model *m = run->model;
+    size_t n2 = 2 * (size_t)run->nq, nmz = (size_t)m->nmz + 1;
+    size_t nhp = ((size_t)m->nh + 1) * DEP_HINGE_PROPERTIES;
+    dep_sens_motion_base(run, t, q, qd);
+    for (size_t i = 0; i < (size_t)x->k; ++i) {
+        const double *dq = s + i * n2;
+        x->dp[x->params[i]] = 1.0;
+        dep_sens_direction(run, t, q, qd, dq, dq + run->nq, x->dH + i * nhp, x->dM + i * nmz,
+                           ds + i * n2, x->dlam + i * (size_t)run->cs.capacity);
         x->dp[x->params[i]] = 0.0;
     }
 }
@@ -414,4 +434,43 @@ void dep_sens_rows_changed(dep_run *run, const double *q)
     memcpy(x->saved_angles, x->row_angles, n * sizeof(double));
     follow_rows(run, ids, x->saved_angles, x->n_rows);
     new_row_angles(run, q);
+}
+
+/* ---- records and refusals ---------------------------------------------------------------- */
+
+/* The event records from `first` on get the sensitivities dtau (k) of their time (NULL: 0,
+   a fixed time). */
+int dep_sens_event_times(dep_run *run, int first, const double *dtau)
+{
+    dep_sensitivity *x = &run->sens;
+    size_t k = (size_t)x->k;
+    if (run->n_records > x->event_capacity) {
+        int capacity = 2 * run->n_records + 8;
+        double *times = dep_doubles(&run->arena, (size_t)capacity * k);
+        if (times == NULL) {
+            return dep_plain_error(run->error, DEP_MEMORY_ERROR, "out of memory");
+        }
+        if (x->event_capacity > 0) {
+            memcpy(times, x->event_times, (size_t)x->event_capacity * k * sizeof *times);
+        }
+        for (size_t j = (size_t)x->event_capacity * k; j < (size_t)capacity * k; ++j) {
+            times[j] = NAN;
+        }
+        x->event_times = times;
+        x->event_capacity = capacity;
+    }
+    for (int r = first; r < run->n_records; ++r) {
+        for (size_t i = 0; i < k; ++i) {
+            x->event_times[(size_t)r * k + i] = dtau != NULL ? dtau[i] : 0.0;
+        }
+    }
+    return DEP_OK;
+}
+
+/* A failure of the sensitivities' own: the step method they cannot follow. */
+int dep_sens_unsupported(dep_run *run, double t, const char *what)
+{
+    char message[400];
+    snprintf(message, sizeof message, "sensitivities at t = %.9g s: %s", t, what);
+    return dep_plain_error(run->error, DEP_SETTINGS_ERROR, message);
 }
