@@ -132,6 +132,11 @@ def _parser() -> argparse.ArgumentParser:
                      help="the ODE method under the multiplier iteration: auto (default: "
                           "explicit, and linearly implicit once a beam's stiff modes bound "
                           "the explicit step), explicit or implicit (docs/method.md)")
+    run.add_argument("--sensitivity", action="append", default=[], metavar="NAME",
+                     help="also follow d/d NAME (a parameter) along the run: the outputs' "
+                          "derivatives as CSV columns d(OUTPUT)/d(NAME), each event time's in "
+                          "the summary (dt_dp) and the report (docs/calibration.md); "
+                          "repeatable")
     run.add_argument("-o", "--out", metavar="CSV", help="write outputs to a CSV file")
     run.add_argument("--summary", metavar="JSON", help="write a JSON run summary")
     run.add_argument("--plot", metavar="PNG", help="plot every output against time (.png, "
@@ -454,7 +459,7 @@ def _run(args) -> int:
     try:
         result = sim.run(set=settings, t_end=args.t_end, dt_out=args.dt_out, tol=args.tol,
                          progress=True, max_steps=args.max_steps, inputs=tables,
-                         stepping=args.stepping)
+                         stepping=args.stepping, sensitivities=args.sensitivity)
     except ValueError as exc:  # a setting the runtime refuses (simulate's documented ValueError)
         raise _usage(str(exc)) from exc
     with all_or_none():
@@ -470,6 +475,8 @@ def _run(args) -> int:
             animate(result, sim.module, args.animate,
                     outlines=sim.outlines(result.parameters), view=args.view)
     print(result.report())
+    if result.sensitivities is not None:
+        print(result.sensitivities.event_text(result.events))
     if floating and result.system_line():
         print(result.system_line())
     print(f"  code: reused from the cache ({sim.cached}): nothing derived" if sim.cached

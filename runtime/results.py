@@ -121,6 +121,24 @@ class Sensitivities:
         """d t / d parameter of event record `index` (Result.events[index])."""
         return float(self.event_times[index, self._index(parameter)])
 
+    def event_text(self, events) -> str:
+        """The events' times' sensitivities as a table (the run's `events`)."""
+        lines = ["  event time sensitivities, dt/dp (s per SI unit):"]
+        width = max([len(e.name) for e in events] + [5])
+        lines.append(f"    {'event':<{width}}  {'t (s)':>10}" + "".join(
+            f"  {name:>16}" for name in self.parameters))
+        for k, event in enumerate(events):
+            lines.append(f"    {event.name:<{width}}  {event.t:10.6g}" + "".join(
+                f"  {self.event_times[k, i]:16.6g}" for i in range(len(self.parameters))))
+        return "\n".join(lines if events else lines[:1] + ["    (no events)"])
+
+    def columns(self) -> tuple[tuple[str, ...], np.ndarray]:
+        """CSV columns "d(OUTPUT)/d(PARAMETER)" and their values (n, k NOUT), parameter by
+        parameter."""
+        names = tuple(f"d({o})/d({p})" for p in self.parameters for o in self.output_names)
+        n = self.outputs.shape[0]
+        return names, self.outputs.reshape(n, -1)
+
 
 @dataclass(frozen=True)
 class Result:
@@ -199,9 +217,12 @@ class Result:
         return self.energy.sum(axis=1) + self.dissipated.sum(axis=1) + impacts
 
     def to_csv(self, path) -> None:
-        """`t` then one column per output (SI), header names exactly the output names, %.17g."""
-        table = np.column_stack((self.times, self.outputs))
-        header = ",".join(("t",) + self.output_names)
+        """`t` then one column per output (SI), header names exactly the output names, %.17g;
+        with sensitivities, then d(OUTPUT)/d(PARAMETER) for each parameter and output."""
+        names, columns = ((), np.empty((len(self.times), 0))) if self.sensitivities is None \
+            else self.sensitivities.columns()
+        table = np.column_stack((self.times, self.outputs, columns))
+        header = ",".join(("t",) + self.output_names + names)
         lines = [header] + [",".join(f"{v:.17g}" for v in row) for row in table]
         _write_atomic(path, "\n".join(lines) + "\n")
 

@@ -100,3 +100,24 @@ def test_without_a_c_compiler_the_error_says_what_to_install(tmp_path):
                           env=env, capture_output=True, text=True)
     assert done.returncode == 2 and "CC is set to '/no/such/cc'" in done.stderr
     assert not (tmp_path / "out.csv").exists()
+
+
+def test_run_with_sensitivities_writes_their_columns_and_event_times(cli, tmp_path):
+    """--sensitivity: the outputs' derivatives as CSV columns and each event time's in the
+    summary and the report (the values: tests/runtime/test_sensitivities.py)."""
+    import json
+
+    csv, summary = tmp_path / "out.csv", tmp_path / "summary.json"
+    done = cli("run", EXAMPLES / "intelsat5.dep", "--target", "c", "--sensitivity",
+               "h1.friction", "--sensitivity", "cable_k", "--dt-out", "1", "-o", csv,
+               "--summary", summary)
+    assert done.returncode == 0, done.stderr
+    header = csv.read_text().splitlines()[0].split(",")
+    assert header[5:7] == ["d(theta1)/d(h1.friction)", "d(theta2)/d(h1.friction)"]
+    assert header[-1] == "d(theta4)/d(cable_k)"
+    first = json.loads(summary.read_text())["events"][0]
+    assert first["name"] == "h1.latch" and set(first["dt_dp"]) == {"h1.friction", "cable_k"}
+    assert "event time sensitivities" in done.stdout
+    done = cli("run", EXAMPLES / "pendulum.dep", "--sensitivity", "nope", "--t-end", "0.1")
+    assert done.returncode == 2 and "not a parameter" in done.stderr
+    assert "Traceback" not in done.stderr
