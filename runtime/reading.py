@@ -121,13 +121,6 @@ def _deployment(module, d) -> Deployment:
                       _optional(d.time), float(d.friction_energy), float(d.impact_energy))
 
 
-def _system(module, q: np.ndarray, qd: np.ndarray, p: np.ndarray) -> np.ndarray:
-    """The model's system_state (mass, centre of mass, momentum, angular momentum) at each
-    recorded state (n, NSYS)."""
-    names = tuple(getattr(module, "SYSTEM_STATE", ()))
-    if not names or not len(q):
-        return np.zeros((len(q), len(names)))
-    return np.array([module.system_state(a, b, p) for a, b in zip(q, qd)], dtype=float)
 
 
 def read_result(module, r) -> Result:
@@ -153,7 +146,7 @@ def read_result(module, r) -> Result:
         hinge_torque=doubles(r.hinge_torque, n, r.nh), peak_loads=_peaks(module, r),
         deployment=_deployment(module, r.deployment), report_text=text(r.report),
         system_names=tuple(getattr(module, "SYSTEM_STATE", ())),
-        system=_system(module, q, qd, p), sensitivities=_sensitivities(module, r))
+        system=doubles(r.system_state, n, r.nsys), sensitivities=_sensitivities(module, r))
 
 
 def _sensitivities(module, r) -> Sensitivities | None:

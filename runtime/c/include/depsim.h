@@ -278,6 +278,9 @@ typedef struct dep_result {
     double *hinge_force;           /* n x nh x 3, N: force on member b from member a (x, y, z;
                                       ground frame), NAN for a hinge without reaction rows */
     double *hinge_torque;          /* n x nh, N m lock torque on member b, NAN if free */
+    int nsys;                      /* the model's system_state columns */
+    double *system_state;          /* n x nsys: mass, centre of mass, momentum, angular
+                                      momentum (the model's SYSTEM_STATE), SI */
     dep_peak *peak_loads;          /* nh: over the output times and every accepted step */
     dep_deployment deployment;
     dep_stats stats;

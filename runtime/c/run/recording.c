@@ -100,6 +100,7 @@ int dep_recorder_init(dep_recorder *rec, const dep_system *system, dep_mechanism
         rec->hinge_rates = dep_doubles(arena, rows * (size_t)m->nh);
         rec->residuals = dep_doubles(arena, rows * 3);
         rec->energy = dep_doubles(arena, rows * (size_t)system->ne);
+        rec->system_state = dep_doubles(arena, rows * (size_t)m->nsys);
     }
     if (grow_multipliers(rec, (int)(rows * (size_t)m->nc)) != DEP_OK) {
         return DEP_MEMORY_ERROR; /* room for the model's rows at every output time */
@@ -280,6 +281,9 @@ int dep_record(dep_recorder *rec, double t, const double *q, const double *qd, c
     m->hinge_angles(q, s->p, rec->hinge_angles + row * (size_t)m->nh);
     m->hinge_rates(q, qd, s->p, rec->hinge_rates + row * (size_t)m->nh);
     dep_system_energy(s, q, qd, t, rec->energy + row * (size_t)s->ne);
+    if (m->nsys > 0) {
+        m->system_state(q, qd, s->p, rec->system_state + row * (size_t)m->nsys);
+    }
     return DEP_OK;
 }
 
@@ -373,6 +377,8 @@ int dep_recorder_result(dep_recorder *rec, dep_result *result)
     result->hinge_rates = kept_doubles(rec, rec->hinge_rates, n * (size_t)m->nh, &failed);
     result->outputs = copy_doubles(rec->outputs, n * (size_t)m->nout, &failed);
     result->energy = kept_doubles(rec, rec->energy, n * (size_t)result->ne, &failed);
+    result->nsys = m->nsys;
+    result->system_state = kept_doubles(rec, rec->system_state, n * (size_t)m->nsys, &failed);
     result->dissipated = copy_doubles(rec->work, n * (size_t)result->nd, &failed);
     result->hinge_force = copy_doubles(rec->force, n * DEP_FORCE_ROWS * (size_t)m->nh, &failed);
     result->hinge_torque = copy_doubles(rec->torque, n * (size_t)m->nh, &failed);
@@ -401,7 +407,7 @@ void dep_result_free(dep_result *result)
                         result->hinge_angles, result->hinge_rates, result->outputs,
                         result->residual_pos, result->residual_vel, result->residual_acc,
                         result->energy, result->dissipated, result->hinge_force,
-                        result->hinge_torque, result->sensitivity_state,
+                        result->hinge_torque, result->system_state, result->sensitivity_state,
                         result->sensitivity_outputs, result->sensitivity_events};
     for (size_t i = 0; i < sizeof arrays / sizeof *arrays; ++i) {
         free(arrays[i]);

@@ -60,6 +60,7 @@ typedef struct dep_recorder {
     int outputs_only; /* dep_settings.rows == DEP_ROWS_OUTPUTS */
     double *times;
     double *t, *q, *qd, *hinge_angles, *hinge_rates, *outputs, *residuals, *energy, *work;
+    double *system_state;     /* rows x nsys: the model's system_state at each row */
     double *force, *torque;   /* rows x nh x 2, rows x nh: the hinges' loads */
     int *force_rows;          /* DEP_FORCE_ROWS nh: each hinge's reaction rows */
     dep_mechanism *mechanism; /* the hinges' lock torques; NULL: the lock rows' alone */
