@@ -317,8 +317,10 @@ def _elements(text: str) -> dict[str, str]:
     return counts
 
 
-def _settings(items: list[str], option: str = "--set",
-              example: str = "h2.friction=0.7") -> dict[str, str]:
+def _settings(items: list[str], option: str = "--set", example: str = "h2.friction=0.7",
+              each: str = "parameter") -> dict[str, str]:
+    """NAME=VALUE items as {name: value text}; UsageError for a malformed or repeated one (the
+    standalone program words its --set the same way)."""
     from depsim.errors import UsageError
 
     settings = {}
@@ -328,7 +330,8 @@ def _settings(items: list[str], option: str = "--set",
             raise UsageError(f"{option} '{item}': expected NAME=VALUE, e.g. {option} {example}")
         if name.strip() in settings:
             raise UsageError(f"{option} {name.strip()} is given twice "
-                             f"({settings[name.strip()]} and {value.strip()}): give each once")
+                             f"({settings[name.strip()]} and {value.strip()}): give each "
+                             f"{each} once")
         settings[name.strip()] = value.strip()
     return settings
 
@@ -595,7 +598,7 @@ def _fit(args) -> int:
     _check_outputs(args.model, [("-o", args.out, check_output),
                                 ("--plot", args.plot, lambda p: check_output(p, PLOT_FORMATS))])
     settings = _settings(args.set)
-    sigma = _settings(args.sigma, "--sigma", "theta1=0.05deg")
+    sigma = _settings(args.sigma, "--sigma", "theta1=0.05deg", "column")
     model = _load(args)
     sim = model.compile(target=args.target)
     found = depsim.fit(sim, data=args.data, free=args.free, latch_times=args.latch_times,
