@@ -160,7 +160,8 @@ def _sensitivities(module, r) -> Sensitivities | None:
         parameters=tuple(module.PARAMETERS[r.sensitivity_params[i]] for i in range(k)),
         q=state[:, :, :nq], qd=state[:, :, nq:], outputs=doubles(r.sensitivity_outputs, n, k, nout),
         event_times=doubles(r.sensitivity_events, r.n_events, k),
-        output_names=tuple(module.OUTPUTS))
+        lam=doubles(r.sensitivity_lam, n, k, int(module.NC)),
+        output_names=tuple(module.OUTPUTS), constraint_names=tuple(module.CONSTRAINTS))
 
 
 def read_end(module, r) -> RunEnd:

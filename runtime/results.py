@@ -103,7 +103,9 @@ class Sensitivities:
     qd: np.ndarray  # (n, k, NQ) d qd / d p
     outputs: np.ndarray  # (n, k, NOUT) d output / d p (SI per SI; NaN: a dissipated work's)
     event_times: np.ndarray  # (n_events, k) d t_event / d p of each event record (0 at t = 0)
+    lam: np.ndarray | None = None  # (n, k, NC) d lambda / d p of the model's rows
     output_names: tuple[str, ...] = ()
+    constraint_names: tuple[str, ...] = ()  # (NC,) the model's rows, the columns of lam
 
     def output(self, name: str, parameter: str) -> np.ndarray:
         """d output / d parameter at the output times (n,)."""

@@ -298,3 +298,19 @@ def test_flexible_pendulum_with_explicit_steps():
         reference, _ = finite_difference(sim, name, **run)
         assert_agrees(result.sensitivities.output("chord2", name), reference[:, 0],
                       f"d chord2 / d {name}", agreement=1e-4)
+
+
+def test_multipliers_against_finite_differences(pendulum):
+    """The model's rows' multipliers (the pivot's reaction) to the bar's length. The run's
+    multipliers at an output time come from their interpolation over the step (method.md,
+    5), good to the passes' tolerance, so their differences carry that over h as well: 1e-4
+    of the history's scale."""
+    run = dict(tol=TOL, t_end=2.0, dt_out=0.05)
+    result = pendulum.run(sensitivities=["L"], **run)
+    s = result.sensitivities
+    p0, h = step(pendulum, "L")
+    ends = [pendulum.run(set={"L": p0 + sign * h}, **run) for sign in (1.0, -1.0)]
+    columns = [result.constraint_names.index(name) for name in s.constraint_names]
+    reference = (ends[0].lam[:, columns] - ends[1].lam[:, columns]) / (2 * h)
+    assert s.lam.shape == (len(result.times), 1, len(columns))
+    assert_agrees(s.lam[:, 0, :], reference, "d lambda / d L", agreement=1e-4)

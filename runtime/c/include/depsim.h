@@ -290,10 +290,10 @@ typedef struct dep_result {
     /* With dep_settings.n_sensitivities = k > 0: the parameters followed (k indices into p),
        and d/dp of q and qd (n x k x 2 nq: dq then dqd), of the outputs (n x k x nout; NAN for
        an output made of a dissipated work) and of each event record's time (n_events x k; 0
-       at t = 0, NAN where not followed). */
+       at t = 0, NAN where not followed), and of the model's rows' multipliers (n x k x nc). */
     int n_sensitivities;
     int *sensitivity_params;
-    double *sensitivity_state, *sensitivity_outputs, *sensitivity_events;
+    double *sensitivity_state, *sensitivity_outputs, *sensitivity_events, *sensitivity_lam;
 } dep_result;
 
 /* The model's own settings (T_END, DT_OUT, TOL), mechanics on. */

@@ -408,7 +408,8 @@ void dep_result_free(dep_result *result)
                         result->residual_pos, result->residual_vel, result->residual_acc,
                         result->energy, result->dissipated, result->hinge_force,
                         result->hinge_torque, result->system_state, result->sensitivity_state,
-                        result->sensitivity_outputs, result->sensitivity_events};
+                        result->sensitivity_outputs, result->sensitivity_events,
+                        result->sensitivity_lam};
     for (size_t i = 0; i < sizeof arrays / sizeof *arrays; ++i) {
         free(arrays[i]);
     }

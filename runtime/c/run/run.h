@@ -160,8 +160,9 @@ typedef struct dep_sensitivity {
     long long row_ids[DEP_MAX_ADDED];
     double *row_angles, *saved_angles;
     int n_rows;
-    /* recorded: per output row k x 2 nq and k x (nout + 1); per event record k dtau/dp */
-    double *out_q, *out_y, *w, *dw, *energy, *torques;
+    /* recorded: per output row k x 2 nq, k x (nout + 1) and k x (nc + 1) (the model's rows'
+       multipliers); per event record k dtau/dp */
+    double *out_q, *out_y, *out_lam, *w, *dw, *energy, *torques;
     double *event_times;
     int event_capacity;
     /* the event being fired (jumps.c): its hinge, angular rate and acceleration, its stick or

@@ -357,13 +357,18 @@ int dep_sensitivity_record(dep_run *run, int row, double t, const double *q, con
         return DEP_OK;
     }
     size_t k = (size_t)x->k, n2 = 2 * (size_t)run->nq, nout = (size_t)m->nout + 1;
+    size_t nc = (size_t)m->nc + 1;
     double *s = x->out_q + (size_t)row * k * n2;
     dense(x, (int)n2, t, s);
+    dep_sens_at_state(run, t, q);
+    dep_sens_motion_tangent(run, t, q, qd, s, x->stage);
+    for (size_t i = 0; i < k; ++i) { /* the model's rows come first among the active */
+        memcpy(x->out_lam + ((size_t)row * k + i) * nc, x->dlam + i * (size_t)run->cs.capacity,
+               (size_t)m->nc * sizeof(double));
+    }
     if (m->nout == 0) {
         return DEP_OK;
     }
-    dep_sens_at_state(run, t, q);
-    dep_sens_motion_tangent(run, t, q, qd, s, x->stage);
     double *torques = x->torques;
     if (run->mechanism != NULL) {
         dep_mechanism_hinge_torques(run->mechanism, q, qd, &run->cs, lam, torques);
@@ -424,6 +429,14 @@ int dep_sensitivity_result(dep_run *run, dep_result *result)
     }
     memcpy(result->sensitivity_params, x->params, k * sizeof *x->params);
     result->sensitivity_state = copy_out(x->out_q, rows * k * n2, &failed);
+    size_t nc = (size_t)m->nc, n_lam = rows * k * nc;
+    result->sensitivity_lam = malloc((n_lam > 0 ? n_lam : 1) * sizeof(double));
+    if (result->sensitivity_lam == NULL) {
+        return DEP_MEMORY_ERROR;
+    }
+    for (size_t r = 0; r < rows * k; ++r) {
+        memcpy(result->sensitivity_lam + r * nc, x->out_lam + r * (nc + 1), nc * sizeof(double));
+    }
     size_t n_outputs = rows * k * nout, n_events = (size_t)run->n_records * k;
     result->sensitivity_outputs = malloc((n_outputs > 0 ? n_outputs : 1) * sizeof(double));
     if (result->sensitivity_outputs == NULL) {

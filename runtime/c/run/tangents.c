@@ -98,6 +98,7 @@ int dep_sensitivity_init(dep_run *run)
         size_t rows_out = (size_t)run->recorder.capacity;
         x->out_q = dep_doubles(arena, rows_out * k * n2);
         x->out_y = dep_doubles(arena, rows_out * k * ((size_t)m->nout + 1));
+        x->out_lam = dep_doubles(arena, rows_out * k * ((size_t)m->nc + 1));
     }
     if (arena->failed || dep_multipliers_init(&x->mp, &run->system.mass, &run->cs,
                                               run->cs.capacity, arena) != DEP_OK) {
