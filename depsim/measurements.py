@@ -18,6 +18,7 @@ import numpy as np
 
 from depsim.dsl import ir, parse_quantity
 from depsim.errors import DataError
+from depsim.runtime.tables import content_lines, parse_number
 
 _HEADER_FIELD = re.compile(r"^([A-Za-z_][A-Za-z0-9_.]*)\s*(?:\[([^\]]*)\])?$")
 TIME = ir.Dim(time=1)
@@ -57,7 +58,7 @@ def read_event_times(path, events: set[str], t_end: float):
                                  "(e.g. h1.latch,50.6)")
     scales = [1.0, 1.0]
     first = [f.strip() for f in lines[0][1].split(",")]
-    if len(first) > 1 and _number(first[1]) is None:  # a header naming the columns
+    if len(first) > 1 and parse_number(first[1]) is None:  # a header naming the columns
         scales = _event_header(path, lines[0][0], first)
         lines = lines[1:]
     names, times, sigmas, numbers = [], [], [], []
@@ -130,7 +131,6 @@ def _describe(dim: ir.Dim) -> str:
 
 
 def _lines(path) -> list[tuple[int, str]]:
-    from depsim.runtime.tables import content_lines
 
     try:
         return content_lines(path)
@@ -190,20 +190,13 @@ def _event_header(path, number: int, fields: list[str]) -> list[float]:
 
 
 def _value(path, number: int, text: str, column: str) -> float:
-    value = _number(text)
+    value = parse_number(text)
     if value is None:
         raise DataError(path, number, f"'{text}' in column '{column}' is not a number")
     if not math.isfinite(value):
         raise DataError(path, number, f"'{text}' in column '{column}': every value must be a "
                                       "finite number")
     return value
-
-
-def _number(text: str) -> float | None:
-    try:
-        return float(text)
-    except ValueError:
-        return None
 
 
 def _check_times(path, times: np.ndarray, numbers: np.ndarray, t_end: float) -> None:

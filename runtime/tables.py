@@ -138,7 +138,7 @@ class _Reader:
         expected = f"{self.path}:{number}: expected two numbers 't,u', got '{content}'"
         if len(fields) != 2:
             raise ValueError(f"{expected} ({len(fields)} field{'s' * (len(fields) != 1)})")
-        values = [_number(f) for f in fields]
+        values = [parse_number(f) for f in fields]
         if None in values:
             raise ValueError(f"{expected} ({_not_numbers(fields)})")
         if not all(math.isfinite(v) for v in values):
@@ -164,7 +164,8 @@ def _parse_fast(lines: list[str]) -> np.ndarray | None:
     return rows
 
 
-def _number(field: str) -> float | None:
+def parse_number(field: str) -> float | None:
+    """float(field), or None when it is not a number (text, not an exception)."""
     try:
         return float(field)
     except ValueError:
@@ -174,7 +175,7 @@ def _number(field: str) -> float | None:
 def _not_numbers(fields: list[str]) -> str:
     """Why a row of two fields is not two numbers: the first field that is neither a number
     nor a column's name, else the first name (a header comes only first)."""
-    bad = [f for f in fields if _number(f) is None]
+    bad = [f for f in fields if parse_number(f) is None]
     for field in bad:
         if not field:
             return "an empty field"

@@ -289,7 +289,7 @@ int dep_record(dep_recorder *rec, double t, const double *q, const double *qd, c
 
 /* ---- the result ------------------------------------------------------------------------- */
 
-static double *copy_doubles(const double *from, size_t n, int *failed)
+double *dep_copy_doubles(const double *from, size_t n, int *failed)
 {
     double *to = malloc((n ? n : 1) * sizeof *to);
     if (to == NULL) {
@@ -306,7 +306,7 @@ static double *copy_doubles(const double *from, size_t n, int *failed)
 static double *kept_doubles(const dep_recorder *rec, const double *from, size_t n, int *failed)
 {
     if (!rec->outputs_only) {
-        return copy_doubles(from, n, failed);
+        return dep_copy_doubles(from, n, failed);
     }
     double *to = calloc(n ? n : 1, sizeof *to);
     *failed |= to == NULL;
@@ -368,20 +368,20 @@ int dep_recorder_result(dep_recorder *rec, dep_result *result)
     result->nd = rec->system->nd;
     result->n_rows = rec->n_names;
     result->row_names = copy_names((const char *const *)rec->names, rec->n_names, &failed);
-    result->params = copy_doubles(rec->system->p, (size_t)m->np, &failed);
-    result->times = copy_doubles(rec->t, n, &failed);
+    result->params = dep_copy_doubles(rec->system->p, (size_t)m->np, &failed);
+    result->times = dep_copy_doubles(rec->t, n, &failed);
     result->q = kept_doubles(rec, rec->q, n * (size_t)m->nq, &failed);
     result->qd = kept_doubles(rec, rec->qd, n * (size_t)m->nq, &failed);
     result->lam = dense_multipliers(rec, &failed);
     result->hinge_angles = kept_doubles(rec, rec->hinge_angles, n * (size_t)m->nh, &failed);
     result->hinge_rates = kept_doubles(rec, rec->hinge_rates, n * (size_t)m->nh, &failed);
-    result->outputs = copy_doubles(rec->outputs, n * (size_t)m->nout, &failed);
+    result->outputs = dep_copy_doubles(rec->outputs, n * (size_t)m->nout, &failed);
     result->energy = kept_doubles(rec, rec->energy, n * (size_t)result->ne, &failed);
     result->nsys = m->nsys;
     result->system_state = kept_doubles(rec, rec->system_state, n * (size_t)m->nsys, &failed);
-    result->dissipated = copy_doubles(rec->work, n * (size_t)result->nd, &failed);
-    result->hinge_force = copy_doubles(rec->force, n * DEP_FORCE_ROWS * (size_t)m->nh, &failed);
-    result->hinge_torque = copy_doubles(rec->torque, n * (size_t)m->nh, &failed);
+    result->dissipated = dep_copy_doubles(rec->work, n * (size_t)result->nd, &failed);
+    result->hinge_force = dep_copy_doubles(rec->force, n * DEP_FORCE_ROWS * (size_t)m->nh, &failed);
+    result->hinge_torque = dep_copy_doubles(rec->torque, n * (size_t)m->nh, &failed);
     result->energy_names = copy_names(rec->system->energy_names, result->ne, &failed);
     result->dissipator_names = copy_names(rec->system->dissipator_names, result->nd, &failed);
     double **levels[3] = {&result->residual_pos, &result->residual_vel, &result->residual_acc};

@@ -97,6 +97,8 @@ double dep_impact_loss(const dep_event_record *records, int n);
 void dep_run_values(const dep_system *system, const double *q, const double *torques,
                     const double *work, double impacts, double *energy, double *w);
 double dep_recorder_last_time(const dep_recorder *rec);
+/* A malloc'ed copy of n doubles (at least one allocated); *failed set when it cannot be. */
+double *dep_copy_doubles(const double *from, size_t n, int *failed);
 int dep_recorder_result(dep_recorder *rec, dep_result *result);
 
 /* ---- summary.c: the deployment, the peak loads and the summary text of a result --------- */

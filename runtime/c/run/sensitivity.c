@@ -399,19 +399,6 @@ int dep_sensitivity_record(dep_run *run, int row, double t, const double *q, con
 
 /* ---- the result ---------------------------------------------------------------------------- */
 
-static double *copy_out(const double *from, size_t n, int *failed)
-{
-    double *out = malloc((n ? n : 1) * sizeof *out);
-    if (out == NULL) {
-        *failed = 1;
-        return NULL;
-    }
-    if (n) {
-        memcpy(out, from, n * sizeof *out);
-    }
-    return out;
-}
-
 int dep_sensitivity_result(dep_run *run, dep_result *result)
 {
     dep_sensitivity *x = &run->sens;
@@ -428,7 +415,7 @@ int dep_sensitivity_result(dep_run *run, dep_result *result)
         return DEP_MEMORY_ERROR;
     }
     memcpy(result->sensitivity_params, x->params, k * sizeof *x->params);
-    result->sensitivity_state = copy_out(x->out_q, rows * k * n2, &failed);
+    result->sensitivity_state = dep_copy_doubles(x->out_q, rows * k * n2, &failed);
     size_t nc = (size_t)m->nc, n_lam = rows * k * nc;
     result->sensitivity_lam = malloc((n_lam > 0 ? n_lam : 1) * sizeof(double));
     if (result->sensitivity_lam == NULL) {
