@@ -158,8 +158,9 @@ def test_with_static_friction_the_array_sticks_slips_and_still_deploys(tmp_path)
 @pytest.fixture(scope="module")
 def hand_reference(tmp_path_factory):
     """The hand-written joint-coordinate solver (tests/references/intelsat_hand.c: four hinge
-    angles, Dormand-Prince 5(4), the same forces and latches) at tol 1e-12: theta1..4 every
-    0.05 s over 0-70 s. At 1e-12 and 1e-13 it agrees with itself to about 1e-11 rad."""
+    angles, Dormand-Prince 5(4) with Hairer's step control, the same forces and latches; the
+    tight baseline of bench/bench_intelsat.py) at tol 1e-12: theta1..4 every 0.05 s over 0-70
+    s. At 1e-12 and 1e-13 it agrees with itself to about 1e-11 rad."""
     folder = tmp_path_factory.mktemp("hand")
     program, out = folder / "intelsat_hand", folder / "reference.csv"
     subprocess.run([*compiler(), "-O2", "-std=c99", "-o", str(program),
@@ -175,8 +176,8 @@ def test_agrees_with_the_joint_coordinate_solution_and_converges_with_tol(hand_r
     (docs/method.md, 2), its end value iterated to the law and its interpolation error
     controlled, and the step's end moved by the defect it measures (docs/method.md, 4), so
     the error falls in proportion to tol. Measured 5.8, 8.1 and 6.7 tol at tol 1e-6, 1e-8,
-    1e-10 against the hand solver at 1e-13 (the hand solver's own: 144, 46 and 21 tol; without the friction move depsim's grew
-    as tol^0.7, 7.8, 26 and 116 tol). The bound, 15 tol at each, leaves room for another
+    1e-10 against the hand solver at 1e-13 (the hand solver's own: 589, 29 and 18 tol; without
+    the friction move depsim's grew as tol^0.7, 7.8, 26 and 116 tol). The bound, 15 tol at each, leaves room for another
     machine's round-off to move the steps; and the error falls with tol.
 
     And the cost that accuracy takes: a trial step integrates once (6 force evaluations) and
