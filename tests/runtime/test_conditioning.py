@@ -162,6 +162,45 @@ def test_a_parallelogram_passes_its_singular_position(build):
     assert np.max(np.abs(result.output("rate") - rate)) < 100 * tol * 5  # |omega| <= 5 rad/s
 
 
+def parallelogram_chain(n: int) -> str:
+    """n parallelograms sharing their cranks: cranks c0..cn pinned to the ground at x = 0..n,
+    couplers k1..kn joining the tips of cranks i-1 and i; all links 1 m, 1 kg."""
+    lines = [f'model chain{n} "{n} parallelograms sharing their cranks"',
+             "gravity = (0, -9.81) m/s^2"]
+    bars = [f"c{i}" for i in range(n + 1)] + [f"k{i}" for i in range(1, n + 1)]
+    lines += [f"bar {bar} {{ length = 1 m; mass = 1 kg; inertia = 1 kg * (1 m)^2 / 12 }}"
+              for bar in bars]
+    lines.append("ground { " + "; ".join(f"point p{i} = ({i}, 0) m" for i in range(n + 1)) + " }")
+    lines += [f"hinge g{i} joins ground.p{i} to c{i}.a" for i in range(n + 1)]
+    for i in range(1, n + 1):
+        lines += [f"hinge a{i} joins c{i - 1}.b to k{i}.a", f"hinge b{i} joins k{i}.b to c{i}.b"]
+    lines += ["initial { g0 = 10 deg; g0.rate = 0 rad/s }",
+              "simulate { t_end = 5 s; tol = 1e-8; dt_out = 0.01 s }",
+              "output crank = g0", "output rate = g0.rate",
+              "output energy = system.energy", "output kinetic = system.kinetic_energy"]
+    return "\n".join(lines) + "\n"
+
+
+def test_a_chain_of_ten_parallelograms_passes_its_singular_positions(build):
+    """At the horizontal the ten parallelograms' couplers and cranks lie on the line of the
+    pivots and Phi_q loses ten ranks at once (the mobility jumps from 1 to 11): S has ten weak
+    directions there, each deflated, and the run passes the position six times in 5 s on the
+    one-angle equation of the whole chain. The rigid chain's coupler forces grow as 1/theta
+    towards it, which the multipliers' polynomial profile follows only approximately: the
+    crossings cost a few tol of energy each (docs/method.md, 6a), so the bounds are looser than
+    the single parallelogram's."""
+    tol, n = 1e-8, 10
+    result = build(parallelogram_chain(n), f"chain{n}").run(tol=tol)
+    assert result.times[-1] == pytest.approx(5.0)
+    # n + 1 cranks (m L^2 / 3 about their pivots), n translating couplers (m L^2);
+    # V = (n + 1) (m g L / 2) sin theta + n m g L sin theta
+    angle, _ = one_angle(result.times, 10, (n + 1) / 3 + n, (n + 1) * 9.81 / 2 + n * 9.81)
+    assert np.count_nonzero(np.diff(np.sign(np.sin(angle))) != 0) >= 6
+    assert np.max(np.abs(result.output("crank") - angle)) < 100 * tol
+    energy = result.output("energy")
+    assert np.max(np.abs(energy - energy[0])) < 30 * tol * np.max(result.output("kinetic"))
+
+
 # -- assembly at tolerances near round-off ----------------------------------------------------
 
 FOURBAR = """model fourbar "crank-rocker four-bar, assembled from the crank angle"

@@ -323,7 +323,8 @@ typedef struct dep_multipliers { /* scratch of the iteration and its Schur-compl
     int weak_nulls;        /* of the n_nulls: weak rows' combinations (not null to round-off:
                               a singular position's) */
     double *range;      /* capacity: a residual less its part along the null vectors */
-    double *nulls;      /* DEP_NULL_MAX x capacity: S's null vectors (orthonormal) for the */
+    int null_max;       /* min(capacity, DEP_NULL_MAX) */
+    double *nulls;      /* null_max x capacity: S's null vectors (orthonormal) for the */
     long long nulls_id; /* factor of the Jacobian with this id (-1: none) */
     int n_nulls;
 } dep_multipliers;
@@ -346,7 +347,7 @@ int dep_iterate_multipliers(dep_multipliers *mp, int stage, double *lam, int nc,
 void dep_pass_magnitude(dep_multipliers *mp, const double *J, int nc, const double *lam,
                         double c, const double *x, const double *b, double *magnitude);
 /* The null vectors of the factor dep_schur_form left, one per dropped row and weak
-   combination (up to DEP_NULL_MAX), orthonormal, into mp->nulls; their count (nulls.c). */
+   combination (up to mp->null_max), orthonormal, into mp->nulls; their count (nulls.c). */
 int dep_schur_nulls(dep_multipliers *mp, int nc);
 /* x (nc) less its parts along the null vectors mp->nulls (orthonormal). */
 void dep_schur_deflate(const dep_multipliers *mp, int nc, double *x);
@@ -363,7 +364,9 @@ int dep_schur_solve(dep_multipliers *mp, const double *J, long long jacobian_id,
    docs/method.md, 6a). */
 #define DEP_RANK_DROP 1e-15
 #define DEP_RANK_WEAK 1e-9
-#define DEP_NULL_MAX 8 /* null vectors of S the iteration handles (more: only the first) */
+/* Null vectors of S the iteration handles (more: only the first). A chain of N parallelograms
+   sharing their cranks gains N at its singular position. */
+#define DEP_NULL_MAX 128
 /* A Jacobian this close (relative) keeps the factor of S. */
 #define DEP_SCHUR_REUSE 1e-6
 /* S for the rows J (identity id): the factor at hand when it serves them (formed for them, or

@@ -123,7 +123,7 @@ static int find_nulls(dep_multipliers *mp, int nc)
     const dep_envelope *e = &mp->envelope;
     long long iterations = 0;
     mp->n_nulls = mp->weak_nulls = 0;
-    for (int k = 0; k < 2 * nc && mp->n_nulls < DEP_NULL_MAX; ++k) {
+    for (int k = 0; k < 2 * nc && mp->n_nulls < mp->null_max; ++k) {
         int j = k % nc; /* the dropped rows first, then the weak ones (apart from those) */
         double pivot = mp->schur_envelope ? DEP_ENVELOPE_AT(e, e->L, j, j) : mp->L[j * nc + j];
         double diagonal = mp->schur_envelope ? DEP_ENVELOPE_AT(e, e->A, j, j) : mp->S[j * nc + j];
@@ -172,7 +172,7 @@ int dep_schur_nulls(dep_multipliers *mp, int nc)
     if (!mp->schur_factored || !mp->schur_explicit) {
         return 0;
     }
-    for (int round = 0; round < DEP_NULL_MAX && find_nulls(mp, nc); ++round) {
+    for (int round = 0; round < mp->null_max && find_nulls(mp, nc); ++round) {
         if (!dep_schur_refactor(mp, nc)) { /* S again without the rows forced */
             mp->n_nulls = 0;
             return 0;

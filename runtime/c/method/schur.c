@@ -93,7 +93,8 @@ int dep_multipliers_init(dep_multipliers *mp, const dep_mass *mass,
     mp->secant_u = dep_doubles(arena, DEP_SECANTS * nc);
     mp->secant_w = dep_doubles(arena, DEP_SECANTS * nc);
     mp->secant_y = dep_doubles(arena, nc);
-    mp->nulls = dep_doubles(arena, DEP_NULL_MAX * nc);
+    mp->null_max = nc < DEP_NULL_MAX ? (int)nc : DEP_NULL_MAX;
+    mp->nulls = dep_doubles(arena, (size_t)mp->null_max * nc + 1);
     mp->range = dep_doubles(arena, nc);
     mp->nulls_id = -1;
     mp->rank_drop = DEP_RANK_DROP;
