@@ -23,8 +23,10 @@ demo: $(STAMP)
 		--summary results/intelsat5.json --plot results/intelsat5.png
 
 # pytest exits 5 when it collects nothing: an empty suite is a failure, not a pass.
+# -n auto: one worker per core (pytest-xdist), each test module on one worker (loadscope), so
+# that a module's compiled models are built once.
 test: $(STAMP)
-	$(BIN)/python -m pytest; status=$$?; \
+	$(BIN)/python -m pytest -n auto --dist loadscope; status=$$?; \
 	if [ $$status -eq 5 ]; then echo "error: no tests were collected" >&2; exit 1; fi; \
 	exit $$status
 

@@ -16,6 +16,8 @@ import functools
 import hashlib
 import math
 import os
+import shutil
+import threading
 from pathlib import Path
 from typing import Mapping
 
@@ -88,17 +90,34 @@ class Model:
         if artifact is not None:
             return artifact, True
         directory, key = _cache_dir(self.ir, target, tangents)
-        if target == "c":
-            from depsim.codegen import compile_c
+        # generated beside the entry and renamed into place, so that processes compiling the
+        # same model at once (a test run's workers, studies started together) never read
+        # each other's half-written files: the first rename wins, the others take its entry
+        building = directory.with_name(f".{directory.name}.{os.getpid()}.{threading.get_ident()}")
+        shutil.rmtree(building, ignore_errors=True)
+        try:
+            if target == "c":
+                from depsim.codegen import compile_c
 
-            artifact = compile_c(self.ir, directory, tangents=tangents)
-        else:
-            from depsim.codegen import compile_numpy
+                artifact = compile_c(self.ir, building, tangents=tangents)
+            else:
+                from depsim.codegen import compile_numpy
 
-            artifact = compile_numpy(self.ir, directory, tangents=tangents)
-        _write_atomic(directory / CACHE_STAMP,
-                      f"{key}\n{artifact.name if artifact != directory else '.'}")
-        return artifact.resolve(), False
+                artifact = compile_numpy(self.ir, building, tangents=tangents)
+            name = artifact.name if artifact != building else "."
+            _write_atomic(building / CACHE_STAMP, f"{key}\n{name}")
+            if directory.exists() and self.cached_code(target, tangents) is None:
+                shutil.rmtree(directory, ignore_errors=True)  # a stale or half-written entry
+            try:
+                os.rename(building, directory)
+            except OSError:  # another process's entry is there now
+                pass
+        finally:
+            shutil.rmtree(building, ignore_errors=True)
+        artifact = self.cached_code(target, tangents)
+        if artifact is None:
+            raise OSError(f"the code cache entry {directory} could not be written")
+        return artifact, False
 
     def cached_code(self, target: str, tangents: bool = False) -> Path | None:
         """The code `compile(target, tangents=tangents)` generated before for this model
