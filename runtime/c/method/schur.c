@@ -2,8 +2,8 @@
  * linearly implicit step's response (a mobility). With a diagonal mass matrix (rigid bodies)
  * S is formed once per Jacobian from the non-zeros of Phi_q alone (S_ab = sum_j J_aj J_bj /
  * M_jj over the coordinates both rows touch) and held in envelope (skyline) form, row a from
- * its first non-zero column, the rows in reverse Cuthill-McKee order when that at least halves
- * the envelope: a chain's rows give a band, so forming and factorising S costs O(n) per
+ * its first non-zero column, the rows in reverse Cuthill-McKee order when that makes the
+ * envelope at least a quarter smaller: a chain's rows give a band, so forming and factorising S costs O(n) per
  * Jacobian instead of O(n^3). With another mass matrix (beams), S is formed densely below
  * EXPLICIT_BELOW rows. Its Cholesky factor is made once per Jacobian and reused by every pass
  * and trial that sees it, and small dense factors of other mobilities are kept aside; above
@@ -16,6 +16,11 @@
 
 #include "method.h"
 
+/* The rows' own order is kept unless reverse Cuthill-McKee's envelope is below this share of
+   its envelope: a spatial model's rows (each body's six frame rows, then the joints') hold
+   their envelope at 0.6 of the model's order, an order that places the rows body by body
+   keeps its own within a few rows. */
+#define RCM_KEEP 0.75
 #define EXPLICIT_BELOW 96 /* form S (nc x nc) once per Jacobian below this many rows */
 #define CG_RTOL 1e-10
 /* Under the linearly implicit step the passes see three mobilities (position, velocity: the
@@ -217,9 +222,9 @@ int dep_schur_refactor(dep_multipliers *mp, int nc)
 #define ENVELOPE(mp, M, a, b) DEP_ENVELOPE_AT(&(mp)->envelope, M, a, b)
 
 /* The envelope's layout for the active rows' pattern: the rows touching each coordinate, the
-   row order (kept unless reverse Cuthill-McKee halves the envelope, mp->permuted), each row's
-   envelope from the first row it shares a coordinate with. It depends on the pattern only, so
-   it is laid out once per pattern (cs->pattern). */
+   row order (kept unless reverse Cuthill-McKee's envelope is below RCM_KEEP of its own,
+   mp->permuted), each row's envelope from the first row it shares a coordinate with. It
+   depends on the pattern only, so it is laid out once per pattern (cs->pattern). */
 static int envelope_layout(dep_multipliers *mp, int nc)
 {
     int nq = mp->nq, *start = mp->column_start, *rows = mp->column_rows, *first = mp->first;
@@ -251,7 +256,8 @@ static int envelope_layout(dep_multipliers *mp, int nc)
     for (int a = 0; a < nc; ++a) {
         mp->order[a] = a;
     }
-    mp->permuted = 2 * reordered < dep_envelope_size(&pattern, mp->order, first);
+    mp->permuted = (double)reordered < RCM_KEEP * (double)dep_envelope_size(&pattern, mp->order,
+                                                                            first);
     if (mp->permuted) {
         dep_envelope_size(&pattern, rank, first);
     } else {
