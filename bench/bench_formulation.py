@@ -1,9 +1,14 @@
 """Spatial formulation: depsim's rotation-matrix coordinates against Euler parameters and joint
 coordinates, on the same mechanisms, side by side.
 
-    .venv/bin/python bench/bench_formulation.py            # a few minutes
-    .venv/bin/python bench/bench_formulation.py --quick    # under a minute (warm cache)
-    .venv/bin/python bench/bench_formulation.py --sizes 3,10,30 --tols 1e-6,1e-8,1e-10 --rounds 5
+    .venv/bin/python bench/bench_formulation.py                  # 5 to 7 minutes
+    .venv/bin/python bench/bench_formulation.py --instructions   # and callgrind's counts
+    .venv/bin/python bench/bench_formulation.py --quick          # under a minute
+    .venv/bin/python bench/bench_formulation.py --parts chain --sizes 3,10,30 --rounds 5
+
+The built programs are kept in --work (depsim's C folders are generated again only when a
+model's text changes): the first run spends about 1.5 minutes building the chain of 30, 40 s
+the quick run's folders; after that --quick takes seconds.
 
 The formulations (every one a C program, timed inside its own process: Python only starts
 the processes and reads what they print, so no Python runs in a timed loop):
@@ -43,7 +48,9 @@ in tol, the largest constraint residual over the accepted steps (depsim: the pas
 position residual; EP: max |Phi|, the norm rows included), and for the free body how close
 the Euler angles came to gimbal lock and whether a quaternion changed sign. Then the
 evaluations, steps and CPU time each needs for the same error, interpolated log-log between
-the tols, and for the chains the growth with N.
+the tols, and for the chains the growth with N. With --instructions, callgrind's instruction
+counts (the same on any load) per evaluation alone, per evaluation of the whole process and
+per step, at tol 1e-8.
 
 The machine's 2 cores are shared: every round runs each (formulation, tol) process once in
 a turning order; times are medians. The load average is printed before and after.
@@ -585,9 +592,9 @@ def load() -> str:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true",
-                        help="chains of 3 and 10, tols 1e-6 and 1e-8, one round")
+                        help="chains of 3 and 6, tols 1e-6 and 1e-8, one round")
     parser.add_argument("--sizes", type=lambda s: numbers(s, int), default=None,
-                        help="chain sizes (3,10,30)")
+                        help="chain sizes (3,10,30; --quick 3,6)")
     parser.add_argument("--tols", type=numbers, default=None, help="1e-6,1e-8,1e-10")
     parser.add_argument("--rounds", type=int, default=None, help="interleaved rounds (3)")
     parser.add_argument("--repeat", type=int, default=None,
@@ -600,7 +607,7 @@ def main(argv=None) -> int:
                         help="build folder, kept between runs (default: %(default)s)")
     args = parser.parse_args(argv)
     quick = args.quick
-    args.sizes = args.sizes or ([3, 10] if quick else [3, 10, 30])
+    args.sizes = args.sizes or ([3, 6] if quick else [3, 10, 30])
     args.tols = args.tols or ([1e-6, 1e-8] if quick else [1e-6, 1e-8, 1e-10])
     args.rounds = args.rounds or (1 if quick else 3)
     args.repeat = args.repeat or (2 if quick else 3)
