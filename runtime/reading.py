@@ -45,7 +45,8 @@ def _stats(s) -> Stats:
                  cg_iterations=s.cg_iterations, factorizations=s.factorizations,
                  max_v_pos=s.max_v_pos, max_v_vel=s.max_v_vel, max_v_acc=s.max_v_acc,
                  min_step=s.min_step, max_step=s.max_step, events=s.events,
-                 implicit_from=_number(s.implicit_from), stiff_rate=_number(s.stiff_rate))
+                 implicit_from=_number(s.implicit_from), stiff_rate=_number(s.stiff_rate),
+                 force_steps=s.force_steps)
 
 
 def _number(value: float) -> float | None:

@@ -77,6 +77,7 @@ class Stats:
     events: int = 0
     implicit_from: float | None = None  # s: from when the step was linearly implicit
     stiff_rate: float | None = None  # 1/s: the stiff mode's rate that brought it (auto)
+    force_steps: int = 0  # accepted steps that prescribed the rows' forces (singular positions)
 
 
 @dataclass(frozen=True, slots=True)

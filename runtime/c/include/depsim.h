@@ -192,6 +192,9 @@ typedef struct dep_stats {
     /* The time from which a stiff mode (of rate stiff_rate, 1/s) made the run take the
        linearly implicit step (docs/method.md, 10); nan for a run that never did. */
     double implicit_from, stiff_rate;
+    /* Accepted steps that prescribed the rows' forces instead of their multipliers, near a
+       singular position (docs/method.md, 6a). */
+    long long force_steps;
 } dep_stats;
 
 /* One entry of an event record's data (Python's EventRecord.data): `key` -> a number, a

@@ -420,6 +420,7 @@ typedef struct dep_profile {
     double inverse[DEP_PROFILE_NODES + 1]; /* 1 / prod_{m != j} (u_j - u_m), u_nodes = 1 */
     double position, velocity, position_start, velocity_start, lagged;
     double excursion; /* integral_0^1 (1 - u) |prod_j (u - u_j) (u - 1)| du */
+    double drift;     /* integral_0^1 |prod_j (u - u_j) (u - 1)| du: the velocities' share */
 } dep_profile;
 
 int dep_history_init(dep_history *history, int capacity, dep_arena *arena);
@@ -538,6 +539,29 @@ typedef struct dep_outcome {
     int friction_coupled;    /* hinges whose damping mattered to the end value's Newton step */
 } dep_outcome;
 
+/* forces.c: the constraint forces F = Phi_q^T lambda prescribed over a step near a singular
+   position, instead of the multipliers: their profile through the accepted forces and the end
+   value Phi_q(q_e)^T lambda_{i+1} (q_e: the step's predicted end), projected onto the rows'
+   normal space at every evaluation by the stage's own S. */
+typedef struct dep_forces {
+    dep_profile profile;  /* over the accepted forces (nq each), the multipliers' times */
+    double *end;          /* nq: the end value Phi_q(q_e)^T lambda_{i+1} */
+    double *end_J;        /* Phi_q(q_e), fixed for the step */
+    double *predicted;    /* nq: q_e */
+    dep_multipliers stage; /* the stages' S and factors */
+    double *stage_J, *moved, *rows; /* scratch: Phi_q at a stage, nq, capacity */
+} dep_forces;
+
+int dep_forces_init(dep_forces *forces, const dep_system *system, dep_constraints *cs,
+                    dep_arena *arena);
+void dep_forces_begin(dep_forces *forces, dep_constraints *cs, const dep_state *start,
+                      double h, const double *prior_qdd, double prior_h);
+void dep_forces_multipliers(dep_forces *forces, dep_constraints *cs, const dep_mass *mass,
+                            const double *force, long long jacobian_id, double *lam);
+void dep_forces_end(dep_forces *forces, const dep_constraints *cs, const double *lam_end);
+void dep_forces_value(dep_forces *forces, dep_constraints *cs, const dep_mass *mass,
+                      const double *q, double t, long long jacobian_id, double *out);
+
 typedef struct dep_stepper {
     const dep_system *system;
     dep_constraints *constraints;
@@ -603,6 +627,10 @@ typedef struct dep_stepper {
     double *newton;         /* n_free x n_free: I + h V C J_h Mc^-1 J_h^T */
     double friction_rate;   /* max_k C_k (J_h Mc^-1 J_h^T)_kk at the last round 0 (1/s) */
     int friction_hinge;     /* its hinge */
+    /* by_force 1: the step prescribes the constraint forces (forces.c) instead of the
+       multipliers */
+    int by_force;
+    dep_forces forces;
 } dep_stepper;
 
 double dep_constraint_tolerance(double tol);

@@ -104,7 +104,7 @@ void dep_profile_set(dep_profile *profile, const dep_history *history, double h,
         profile->lam[j] = history->lam[k];
     }
     set_inverse(profile);
-    profile->position = profile->velocity = profile->excursion = 0.0;
+    profile->position = profile->velocity = profile->excursion = profile->drift = 0.0;
     profile->position_start = profile->velocity_start = profile->lagged = 0.0;
     for (int g = 0; g < 3; ++g) {
         double s = NODES[g], product = s - 1.0;
@@ -118,6 +118,7 @@ void dep_profile_set(dep_profile *profile, const dep_history *history, double h,
             product *= s - profile->u[j];
         }
         profile->excursion += PLAIN[g] * (1.0 - s) * fabs(product);
+        profile->drift += PLAIN[g] * fabs(product);
     }
 }
 
@@ -146,6 +147,7 @@ void dep_profile_hold(dep_profile *profile, double t0, const double *lam)
     profile->velocity_start = 1.0 / 6.0;
     profile->lagged = 1.0 / 24.0;
     profile->excursion = 1.0 / 12.0;
+    profile->drift = 1.0 / 6.0;
 }
 
 /* lambda(t) (nc) of the profile with end value lam_end. */

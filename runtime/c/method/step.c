@@ -139,6 +139,26 @@ static void respond_along(dep_stepper *stepper, const double *lam1)
     for (int i = 0; i < nc; ++i) {
         stepper->rhs_lam[i] = lam1[i] - stepper->base_lam[i];
     }
+    if (stepper->by_force) {
+        /* the force's end value Phi_q(q_e)^T lambda_{i+1} changes at the end alone; the
+           friction's torques turn with J_h over the step as with the multipliers */
+        memset(stepper->rhs_lam, 0, (size_t)nc * sizeof *stepper->rhs_lam);
+        moved_force(stepper, stepper->start_J, stepper->start_Jh, f0);
+        moved_force(stepper, stepper->base_J, stepper->base_Jh, f1);
+        for (int i = 0; i < nc; ++i) {
+            stepper->rhs_lam[i] = lam1[i] - stepper->base_lam[i];
+        }
+        dep_cs_transpose_times(stepper->constraints, stepper->forces.end_J, stepper->rhs_lam,
+                               stepper->column);
+        dep_mass_solve(&stepper->system->mass, stepper->column, stepper->dq);
+        for (int j = 0; j < nq; ++j) {
+            double end = stepper->dq[j]; /* M^-1 Phi_q(q_e)^T d(lambda) */
+            stepper->dq[j] = -h * h * (p0 * f0[j] + p1 * f1[j] + profile->position * end);
+            stepper->dqd[j] = -h * (v0 * f0[j] + v1 * f1[j] + profile->velocity * end);
+            f1[j] += end; /* the end's force, for linear_miss */
+        }
+        return;
+    }
     moved_force(stepper, stepper->start_J, stepper->start_Jh, f0);
     moved_force(stepper, stepper->base_J, stepper->base_Jh, f1);
     for (int j = 0; j < nq; ++j) {
@@ -202,6 +222,11 @@ static int correct_base(dep_stepper *stepper, const double *lam1, dep_measuremen
     int nq = stepper->nq;
     double sum = 0.0;
     int rosenbrock = stepper->base.method == DEP_ROSENBROCK;
+    if (stepper->by_force) {
+        /* each stage projects the force at its own state, which turns with the weak
+           directions near a singular position faster than a linear response follows */
+        return 0;
+    }
     if (stepper->prescribed) {
         const dep_system *system = stepper->system;
         for (int i = 0; i < system->nh; ++i) {

@@ -137,6 +137,9 @@ int dep_stepper_init(dep_stepper *stepper, const dep_system *system, dep_constra
     stepper->newton = dep_doubles(arena, (size_t)system->n_friction
                                          * (size_t)(system->n_friction + 1) + 1);
     stepper->implicit = 0;
+    if (cs->capacity > 0 && dep_forces_init(&stepper->forces, system, cs, arena) != DEP_OK) {
+        return DEP_MEMORY_ERROR;
+    }
     if (system->model->nkz > 0 && dep_stepper_prepare_implicit(stepper, arena) != DEP_OK) {
         return DEP_MEMORY_ERROR;
     }
@@ -174,7 +177,8 @@ int dep_stepper_prepare_implicit(dep_stepper *stepper, dep_arena *arena)
 /* ---- the motion (1) with lambda(t) given -------------------------------------------------- */
 
 /* lambda(t) by `profile` with end value lam_end for the next rhs calls (both kept by
-   reference). */
+   reference); a step that prescribes the constraint forces takes their end value from
+   lam_end now. */
 void dep_stepper_set_rhs(dep_stepper *stepper, const dep_profile *profile,
                          const double *lam_end)
 {
@@ -182,6 +186,9 @@ void dep_stepper_set_rhs(dep_stepper *stepper, const dep_profile *profile,
         stepper->profile = *profile;
     }
     stepper->rhs_end = lam_end;
+    if (stepper->by_force) {
+        dep_forces_end(&stepper->forces, stepper->constraints, lam_end);
+    }
 }
 
 static void dissipation(const dep_system *s, const double *q, const double *qd, double t,
@@ -201,8 +208,13 @@ static void right_side(dep_stepper *stepper, double t, const double *y, double *
     const dep_system *s = stepper->system;
     int nq = stepper->nq;
     const double *q = y, *qd = y + nq;
-    dep_profile_value(&stepper->profile, stepper->rhs_end, t, cs->nc, stepper->rhs_lam);
-    dep_cs_jacobian_transpose_times(cs, q, t, stepper->rhs_lam, stepper->jt_lam);
+    if (stepper->by_force) {
+        dep_forces_value(&stepper->forces, cs, &s->mass, q, t, ++stepper->jacobian_ids,
+                         stepper->jt_lam);
+    } else {
+        dep_profile_value(&stepper->profile, stepper->rhs_end, t, cs->nc, stepper->rhs_lam);
+        dep_cs_jacobian_transpose_times(cs, q, t, stepper->rhs_lam, stepper->jt_lam);
+    }
     memcpy(out, qd, (size_t)nq * sizeof *out);
     if (stepper->known_force != NULL) { /* f given (stage 1 of the linearly implicit step) */
         memcpy(stepper->force, stepper->known_force, (size_t)nq * sizeof *stepper->force);

@@ -292,6 +292,8 @@ int dep_run_after_step(dep_run *run, int *stop)
         memcpy(run->prior.qdd, run->state.qdd, (size_t)run->nq * sizeof(double));
         dep_state_copy(&run->state, new, run->nq, run->cs.nc, run->nd);
         dep_history_add(&run->history, new->t, new->lam);
+        dep_cs_transpose_times(&run->cs, run->outcome.J1, new->lam, run->force_now);
+        dep_history_add(&run->forces, new->t, run->force_now);
         dep_history_add(&run->friction, new->t, run->outcome.friction);
         dep_run_observe_loads(run, &run->state);
         return DEP_OK;

@@ -63,6 +63,7 @@ static int setup(dep_run *run, const double *params, const dep_event *events, in
         || dep_stepper_init(&run->stepper, &run->system, &run->cs, run->settings.tol, arena)
         || dep_history_init(&run->history, run->cs.capacity, arena)
         || dep_history_init(&run->friction, m->nh + 1, arena)
+        || dep_history_init(&run->forces, m->nq, arena)
         || (run->prior.qd = dep_doubles(arena, (size_t)m->nq)) == NULL
         || (run->prior.qdd = dep_doubles(arena, (size_t)m->nq)) == NULL
         || dep_state_init(&run->state, m->nq, run->cs.capacity, run->nd, arena)
@@ -99,6 +100,7 @@ static int setup(dep_run *run, const double *params, const dep_event *events, in
     run->scratch = dep_doubles(arena, DEP_JACOBIAN_SIZE(m) + (DEP_HISTORY + 2) * capacity
                                       + 3 * ny + 2 * nq);
     run->dense_J = dep_doubles(arena, DEP_JACOBIAN_SIZE(m));
+    run->force_now = dep_doubles(arena, nq);
     run->dense_lam = dep_doubles(arena, capacity);
     run->tangent = dep_doubles(arena, ny); /* also the defect's (q, qd) */
     size_t nh = (size_t)m->nh + 1;
@@ -151,6 +153,7 @@ dep_run *dep_run_new(const dep_model *model, const double *params, const dep_set
     run->omega_max = 0.0;
     run->profile_nodes = DEP_PROFILE_NODES;
     dep_tally_init(&run->tally);
+    run->force_steps = 0;
     if (setup(run, params, events, n_events) != DEP_OK) {
         dep_run_free(run);
         return NULL;
@@ -263,6 +266,7 @@ int dep_run_finish(dep_run *run, dep_result *result)
                                     run->stepper.rhs_evaluations);
     result->stats.implicit_from = run->implicit_from;
     result->stats.stiff_rate = run->stiff_rate;
+    result->stats.force_steps = run->force_steps;
     if (dep_summarize(run->model, &run->system, &run->loads, result) != DEP_OK
         || dep_sensitivity_result(run, result) != DEP_OK) {
         dep_result_free(result);

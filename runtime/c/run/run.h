@@ -253,6 +253,12 @@ struct dep_run { /* typedef in depsim.h */
     dep_tally tally;
     dep_history history;
     dep_history friction;      /* the hinges' friction torques at the same points (nh) */
+    dep_history forces;        /* the rows' forces Phi_q^T lambda at the same points (nq) */
+    double *force_now;         /* nq: the newest of them */
+    int by_force, by_force_next; /* the next step prescribes the forces (method/forces.c):
+                                    as the last accepted step's errors chose, and as this
+                                    step's choose */
+    long long force_steps;       /* accepted steps that did */
     double *friction_predicted, *friction_table, *friction_d; /* scratch */
     double *friction_move; /* ny: what the prescribed frictions' defect moves the step's end
                               by (steps.c), added to it when the step is accepted */

@@ -98,6 +98,9 @@ int dep_run_restart(dep_run *run, double t, const double *q, const double *qd,
     }
     dep_tally_observe(&run->tally, &report);
     dep_history_reset(&run->history, t, s->lam, run->cs.nc);
+    dep_cs_transpose_times(&run->cs, stepper->restart_J, s->lam, run->force_now);
+    dep_history_reset(&run->forces, t, run->force_now, run->nq);
+    run->by_force = run->by_force_next = 0;
     dep_friction_law(&run->system, s->q, s->qd, run->friction_predicted);
     dep_history_reset(&run->friction, t, run->friction_predicted, run->system.nh);
     run->friction_steps = 0;

@@ -51,6 +51,18 @@
 #define GRIND_FACTOR 100 /* a run whose steps would pass max_steps that many times over... */
 #define GRIND_STEPS 1000 /* ...for that many steps in a row stops */
 #define CAP_RELAX 1.2
+/* The rows' forces' profile (method/forces.c) is looked at where S's smallest pivot is below
+   FORCE_CONDITION of its diagonal (its rows within about a tenth of a radian of dependent: a
+   singular position's neighbourhood, or members as thin as a tenth of their length) and the
+   multipliers' interpolation error leads the step's errors and is at least FORCE_LEADS of
+   tol. A step takes it when its error is below the multipliers' by FORCE_MARGIN, and keeps it
+   while it is below by FORCE_STAY: each of its evaluations factorises S at its own state (a
+   reflector arm's thin members: 1.6 times the instructions where it took it throughout), so
+   the run pays for it where the multipliers' profile misses by far, at a pole. */
+#define FORCE_CONDITION 1e-2
+#define FORCE_LEADS 0.1
+#define FORCE_MARGIN 4.0
+#define FORCE_STAY 2.0
 
 /* Gives the interpolant of `end`, a step from run->state, the accepted point before it. */
 void dep_run_attach_prior(const dep_run *run, dep_outcome *end)
@@ -217,6 +229,64 @@ static void interpolation_errors(dep_run *run, const dep_outcome *outcome,
     run->friction_moved = 1;
 }
 
+/* The rows' forces' profile's interpolation error over the step just taken (method/forces.c),
+   weighted as interpolation_errors weighs the multipliers': e(t) = D prod_j (t - t_j) with D
+   the divided difference of the accepted forces and the new state's Phi_q^T lambda_{i+1} moves
+   the positions by h^2 integral (1 - s) |e| ds M^-1 D and the velocities by h integral |e| ds
+   M^-1 D; the projection onto the rows' normal space keeps what of e acts along them, which
+   the passes correct, so the positions' move is counted whole (as the multipliers' is) and
+   the velocities' by its tangential part, which stays in the step. -1 when there is no
+   divided difference yet (right after a start or an event). */
+static double force_error(dep_run *run, const dep_outcome *outcome, const double *scale)
+{
+    const dep_profile *profile = &outcome->profile;
+    int nq = run->nq, nc = run->cs.nc, nodes = profile->nodes;
+    double h = profile->h, *table = run->scratch, *d = run->normal + 2 * nc;
+    double *end = d + nq, *move = end + nq, *projection = move + 2 * nq;
+    dep_cs_transpose_times(&run->cs, outcome->J1, outcome->state.lam, end);
+    if (!dep_divided_difference(profile, &run->forces, end, d, table)) {
+        return -1.0;
+    }
+    dep_mass_solve(&run->system.mass, d, end);
+    double position = pow(h, nodes + 3) * profile->excursion;
+    double velocity = pow(h, nodes + 2) * profile->drift;
+    for (int j = 0; j < nq; ++j) {
+        move[j] = position * end[j];
+        move[nq + j] = velocity * end[j];
+    }
+    dep_stepper_use_mobility(&run->stepper, DEP_VELOCITY);
+    dep_stepper_tangential(&run->stepper, outcome->J1, outcome->J1_id, move + nq, projection);
+    dep_stepper_use_mobility(&run->stepper, DEP_POSITION);
+    return dep_rms(move, scale, 2 * nq) * sqrt(2.0 * nq / run->ny);
+}
+
+/* The profile the next step takes (run->by_force_next), from the step just taken: near a
+   singular position, where the multipliers grow as one over the distance to it and a
+   polynomial misses them, the rows' forces' when their interpolation error is the smaller by
+   far (FORCE_CONDITION ... FORCE_STAY), else the multipliers'. e->lam becomes the error of
+   the profile this step took. */
+static void choose_profile(dep_run *run, const dep_outcome *outcome, const double *scale,
+                           dep_step_errors *e)
+{
+    const dep_multipliers *mp = &run->stepper.mp;
+    int by_force = run->stepper.by_force;
+    run->by_force_next = 0;
+    if (run->cs.nc == 0 || run->stepper.implicit
+        || (!by_force && (e->lam < e->ode || e->lam < FORCE_LEADS
+                          || (mp->schur_factored && !(mp->schur_min_pivot < FORCE_CONDITION))))) {
+        return;
+    }
+    double error = force_error(run, outcome, scale);
+    if (error < 0.0) {
+        return;
+    }
+    run->by_force_next = (by_force ? FORCE_STAY : FORCE_MARGIN) * error < e->lam;
+    if (by_force) {
+        e->lam = error;
+        e->lam_order = outcome->profile.nodes + 2;
+    }
+}
+
 /* An accepted step that prescribed the friction torques ends where the law's torques would
    have taken it, to the accuracy of the defect's estimate: its end moves by the tangential
    move e->friction measured (h^2 integral (1 - u) d in q, h integral d in qd, Mc^-1 J_h^T)
@@ -264,6 +334,7 @@ static void step_errors(dep_run *run, const dep_outcome *outcome, dep_step_error
     e->ode_order = rk->order;
     dep_stepper_use_mobility(&run->stepper, DEP_POSITION);
     interpolation_errors(run, outcome, scale, e);
+    choose_profile(run, outcome, scale, e);
     dep_stepper_use_mobility(&run->stepper, DEP_ACCELERATION);
     if (!isfinite(e->ode + e->lam + e->friction)) {
         e->ode = INFINITY;
@@ -405,9 +476,20 @@ int dep_run_step(dep_run *run, double h, dep_outcome *outcome, dep_failure *fail
 {
     dep_profile profile, friction;
     double weights[DEP_HISTORY];
+    dep_stepper *stepper = &run->stepper;
     dep_profile_set(&profile, &run->history, h, run->profile_nodes);
     dep_history_weights(&run->history, &profile, weights);
     dep_history_predict(&run->history, &profile, weights, run->predicted);
+    stepper->by_force = run->by_force && !stepper->implicit && run->cs.nc > 0;
+    if (stepper->by_force) { /* the rows' forces over the step (method/forces.c) */
+        dep_forces *forces = &stepper->forces;
+        dep_profile_share(&forces->profile, &profile, &run->forces);
+        dep_forces_begin(forces, &run->cs, &run->state, h, run->prior.valid ? run->prior.qdd
+                         : NULL, run->prior.valid ? run->state.t - run->prior.t : 0.0);
+        dep_history_predict(&run->forces, &forces->profile, weights, run->force_now);
+        dep_forces_multipliers(forces, &run->cs, &run->system.mass, run->force_now,
+                               ++stepper->jacobian_ids, run->predicted);
+    }
     if (run->system.n_friction == 0) {
         return dep_step(&run->stepper, &run->state, &profile, run->predicted, NULL, NULL,
                         outcome, failure);
@@ -455,6 +537,8 @@ int dep_run_advance(dep_run *run, double *h)
               run->outcome.reports[1].iterations, run->outcome.reports[2].iterations,
               run->outcome.integrations, accepted ? "accepted" : "rejected");
         if (accepted) {
+            run->force_steps += run->stepper.by_force;
+            run->by_force = run->by_force_next;
             add_friction_move(run);
             dep_tally_accept(&run->tally, run->outcome.reports, *h);
             dep_history_learn(&run->history, *h, run->predicted, run->stepper.lam_first);

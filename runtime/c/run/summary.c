@@ -260,6 +260,11 @@ static void solver_lines(const dep_result *r, text *out)
         s->velocity.mean, s->velocity.max, s->acceleration.mean, s->acceleration.max);
     put(out, "  largest constraint residuals at steps: position %.1e, velocity %.1e, "
         "acceleration %.1e\n", s->max_v_pos, s->max_v_vel, s->max_v_acc);
+    if (s->force_steps > 0) {
+        put(out, "  %lld %s near singular positions prescribed the rows' forces instead of "
+            "their multipliers (docs/method.md)\n", s->force_steps,
+            s->force_steps == 1 ? "step" : "steps");
+    }
     if (!isnan(s->implicit_from) && isnan(s->stiff_rate)) {
         put(out, "  linearly implicit steps throughout (stepping implicit); modes much faster "
             "than the step are damped (docs/method.md)\n");

@@ -183,6 +183,7 @@ static void statistics(json *j, const dep_stats *s)
     optional(j, s->implicit_from, 1);
     key(j, "stiff_rate");
     optional(j, s->stiff_rate, 1);
+    named_integer(j, "force_steps", s->force_steps);
     close_(j, '}');
 }
 
