@@ -16,25 +16,6 @@
 
 static const char *const LOCK_NAMES[4] = {"latch", "stop", "stick", "lock"}; /* enum dep_lock */
 
-/* Each hinge's lock-row columns, from the model's HINGE_JACOBIAN_ROWS/COLS. */
-static int lock_patterns(dep_constraints *cs, dep_arena *arena)
-{
-    const dep_model *model = cs->system->model;
-    int nh = model->nh;
-    cs->lock_start = dep_bytes(arena, ((size_t)nh + 1) * sizeof *cs->lock_start);
-    if (cs->lock_start == NULL) {
-        return DEP_MEMORY_ERROR;
-    }
-    for (int h = 0, n = 0; h <= nh; ++h) { /* sorted row-major */
-        cs->lock_start[h] = n;
-        while (h < nh && n < model->nhnz && model->hinge_jacobian_rows[n] == h) {
-            ++n;
-        }
-    }
-    cs->lock_cols = model->hinge_jacobian_cols;
-    return DEP_OK;
-}
-
 /* row_start, row_cols for the active rows. */
 static void refresh_pattern(dep_constraints *cs)
 {
@@ -51,8 +32,9 @@ static void refresh_pattern(dep_constraints *cs)
         const dep_added_row *r = &cs->added[i];
         start[model->nc + i] = k;
         if (r->kind == DEP_ROW_HINGE_LOCK) {
-            for (int m = cs->lock_start[r->hinge]; m < cs->lock_start[r->hinge + 1]; ++m) {
-                cols[k++] = cs->lock_cols[m];
+            const int *hinge_start = cs->system->hinge_start;
+            for (int m = hinge_start[r->hinge]; m < hinge_start[r->hinge + 1]; ++m) {
+                cols[k++] = model->hinge_jacobian_cols[m];
             }
             continue;
         }
@@ -100,6 +82,22 @@ void dep_cs_sizes(const dep_constraints *cs, const double *J, const double *x, d
     }
 }
 
+void dep_cs_times_sized(const dep_constraints *cs, const double *J, const double *x,
+                        double *out, double *size)
+{
+    const double *s = cs->system->scales;
+    for (int i = 0; i < cs->nc; ++i) {
+        double sum = 0.0, sized = 0.0;
+        for (int k = cs->row_start[i]; k < cs->row_start[i + 1]; ++k) {
+            int j = cs->row_cols[k];
+            sum += J[k] * x[j];
+            sized += fabs(J[k]) * (s[j] + fabs(x[j]));
+        }
+        out[i] = sum;
+        size[i] = sized;
+    }
+}
+
 void dep_cs_abs_times(const dep_constraints *cs, const double *J, const double *m, double *out)
 {
     for (int i = 0; i < cs->nc; ++i) {
@@ -143,7 +141,7 @@ int dep_constraints_init(dep_constraints *cs, const dep_system *system, dep_aren
     cs->row_hinges = dep_bytes(arena, (size_t)cs->capacity * sizeof *cs->row_hinges);
     cs->row_start = dep_bytes(arena, ((size_t)cs->capacity + 1) * sizeof *cs->row_start);
     cs->row_cols = dep_bytes(arena, DEP_JACOBIAN_SIZE(model) * sizeof *cs->row_cols);
-    if (arena->failed || lock_patterns(cs, arena) != DEP_OK) {
+    if (arena->failed) {
         return DEP_MEMORY_ERROR;
     }
     for (int i = 0; i < model->nc; ++i) {
@@ -157,11 +155,16 @@ int dep_constraints_init(dep_constraints *cs, const dep_system *system, dep_aren
 
 /* ---- the added rows (HingeLock, LinearConstraint) ----------------------------------------- */
 
-static double row_phi(dep_constraints *cs, const dep_added_row *r, const double *q)
+/* The added rows' helpers below evaluate the model's hinge function they need once per
+   call of the level (*made: 0 before the first lock row at q), not once per lock row. */
+static double row_phi(dep_constraints *cs, const dep_added_row *r, const double *q, int *made)
 {
     const dep_system *s = cs->system;
     if (r->kind == DEP_ROW_HINGE_LOCK) {
-        s->model->hinge_angles(q, s->p, cs->theta);
+        if (!*made) {
+            s->model->hinge_angles(q, s->p, cs->theta);
+            *made = 1;
+        }
         return cs->theta[r->hinge] - r->angle;
     }
     double sum = 0.0;
@@ -173,7 +176,7 @@ static double row_phi(dep_constraints *cs, const dep_added_row *r, const double 
 
 /* The added row i's Jacobian at its pattern (row_cols from row_start[nc_module + i]): a
    linear row's own non-zeros, a lock's values of the model's hinge_jacobian. */
-static const double *row_jacobian(dep_constraints *cs, int i, const double *q)
+static const double *row_jacobian(dep_constraints *cs, int i, const double *q, int *made)
 {
     const dep_system *s = cs->system;
     const dep_added_row *r = &cs->added[i];
@@ -184,20 +187,26 @@ static const double *row_jacobian(dep_constraints *cs, int i, const double *q)
         }
         return cs->row_values;
     }
-    s->model->hinge_jacobian(q, s->p, cs->hinge_jacobian);
-    return cs->hinge_jacobian + cs->lock_start[r->hinge];
+    if (!*made) {
+        s->model->hinge_jacobian(q, s->p, cs->hinge_jacobian);
+        *made = 1;
+    }
+    return cs->hinge_jacobian + cs->system->hinge_start[r->hinge];
 }
 
 /* HingeLock.gamma: the model's hinge_gamma, -(J_k qd)_q qd (zero for rigid bodies); zero
    for linear rows. */
 static double row_gamma(dep_constraints *cs, const dep_added_row *r, const double *q,
-                        const double *qd)
+                        const double *qd, int *made)
 {
     const dep_system *s = cs->system;
     if (r->kind == DEP_ROW_LINEAR) {
         return 0.0;
     }
-    s->model->hinge_gamma(q, qd, s->p, cs->theta);
+    if (!*made) {
+        s->model->hinge_gamma(q, qd, s->p, cs->theta);
+        *made = 1;
+    }
     return cs->theta[r->hinge];
 }
 
@@ -205,19 +214,21 @@ static double row_gamma(dep_constraints *cs, const dep_added_row *r, const doubl
 
 void dep_cs_phi(dep_constraints *cs, const double *q, double t, double *out)
 {
+    int made = 0;
     cs->system->model->phi(q, t, cs->system->p, out);
     for (int i = 0; i < cs->n_added; ++i) {
-        out[cs->nc_module + i] = row_phi(cs, &cs->added[i], q);
+        out[cs->nc_module + i] = row_phi(cs, &cs->added[i], q, &made);
     }
 }
 
 void dep_cs_jacobian(dep_constraints *cs, const double *q, double t, double *J)
 {
     const dep_model *model = cs->system->model;
+    int made = 0;
     model->phi_q(q, t, cs->system->p, J); /* the model's rows come first, in its order */
     for (int i = 0; i < cs->n_added; ++i) {
         int a = cs->nc_module + i;
-        memcpy(J + cs->row_start[a], row_jacobian(cs, i, q),
+        memcpy(J + cs->row_start[a], row_jacobian(cs, i, q, &made),
                (size_t)(cs->row_start[a + 1] - cs->row_start[a]) * sizeof *J);
     }
 }
@@ -225,10 +236,11 @@ void dep_cs_jacobian(dep_constraints *cs, const double *q, double t, double *J)
 void dep_cs_jacobian_transpose_times(dep_constraints *cs, const double *q, double t,
                                      const double *lam, double *out)
 {
+    int made = 0;
     cs->system->model->phi_q_transpose_times(q, t, cs->system->p, lam, out);
     for (int i = 0; i < cs->n_added; ++i) {
         int a = cs->nc_module + i;
-        const double *row = row_jacobian(cs, i, q);
+        const double *row = row_jacobian(cs, i, q, &made);
         for (int k = cs->row_start[a]; k < cs->row_start[a + 1]; ++k) {
             out[cs->row_cols[k]] += row[k - cs->row_start[a]] * lam[a];
         }
@@ -245,9 +257,10 @@ void dep_cs_phi_t(dep_constraints *cs, const double *q, double t, double *out)
 
 void dep_cs_gamma(dep_constraints *cs, const double *q, const double *qd, double t, double *out)
 {
+    int made = 0;
     cs->system->model->gamma(q, qd, t, cs->system->p, out);
     for (int i = 0; i < cs->n_added; ++i) {
-        out[cs->nc_module + i] = row_gamma(cs, &cs->added[i], q, qd);
+        out[cs->nc_module + i] = row_gamma(cs, &cs->added[i], q, qd, &made);
     }
 }
 

@@ -83,7 +83,7 @@ static void friction_mobility(dep_stepper *stepper, const double *q1, const dep_
         unit[i] = 1.0; /* (J_h M^-1 J_h^T)_ii */
         dep_hinge_transpose_times(system, stepper->Jh, unit, stepper->column);
         dep_mass_solve(&system->mass, stepper->column, stepper->force);
-        system->model->hinge_rates(q1, stepper->force, system->p, stepper->friction_now);
+        dep_hinge_times(system, stepper->Jh, stepper->force, stepper->friction_now);
         unit[i] = 0.0;
         bound[i] = slope[i] * stepper->friction_now[i];
         if (stepper->h * bound[i] > FRICTION_WEAK) {
@@ -100,7 +100,7 @@ static void friction_mobility(dep_stepper *stepper, const double *q1, const dep_
         constrained_response(stepper, pos, unit, out,
                              stepper->mobile_lam + (size_t)k * (size_t)stepper->capacity);
         unit[i] = 0.0;
-        system->model->hinge_rates(q1, out, system->p, stepper->friction_now);
+        dep_hinge_times(system, stepper->Jh, out, stepper->friction_now);
         if (slope[i] * stepper->friction_now[i] > stepper->friction_rate) {
             stepper->friction_rate = slope[i] * stepper->friction_now[i];
             stepper->friction_hinge = i;
@@ -117,7 +117,8 @@ static void friction_mobility(dep_stepper *stepper, const double *q1, const dep_
    G = J_h Mc^-1 J_h^T, the others (Z, damping too weak to matter) take d_Z = r_Z; and
    lambda_{i+1} moves with d so that the rows stay restored. The responses are linear: one
    constrained solve, for r_Z, and the coupled hinges' columns (friction_mobility) give those
-   of r and d. */
+   of r and d. Newton's matrix keeps round 0's J_h (the state moves by the rounds' small
+   corrections); the law itself is evaluated at each round's state. */
 int dep_stepper_friction_settled(dep_stepper *stepper, const double *q1, const double *qd1,
                             int round, const dep_measurement *pos)
 {
@@ -161,14 +162,14 @@ int dep_stepper_friction_settled(dep_stepper *stepper, const double *q1, const d
         return 1;
     }
     if (nf > 0) { /* the coupled hinges' Newton system, with the others' effect on them */
-        system->model->hinge_rates(q1, response, system->p, stepper->law_scratch);
+        dep_hinge_times(system, stepper->Jh, response, stepper->law_scratch);
         for (int a = 0; a < nf; ++a) {
             int i = stepper->free_hinges[a];
             d[a] = r[i] - h * V * slope[i] * stepper->law_scratch[i];
         }
         for (int b = 0; b < nf; ++b) { /* column b: h V C_F J_h,F Mc^-1 J_h^T e_b, then I */
-            system->model->hinge_rates(q1, stepper->mobile + (size_t)b * (size_t)nq,
-                                       system->p, stepper->law_scratch);
+            dep_hinge_times(system, stepper->Jh, stepper->mobile + (size_t)b * (size_t)nq,
+                            stepper->law_scratch);
             for (int a = 0; a < nf; ++a) {
                 int i = stepper->free_hinges[a];
                 G[a * nf + b] = h * V * slope[i] * stepper->law_scratch[i] + (a == b ? 1.0 : 0.0);

@@ -51,8 +51,6 @@ typedef struct dep_constraints {
        values are J[row_start[i] .. row_start[i + 1]) (DEP_JACOBIAN_SIZE of them at most). */
     int *row_start, *row_cols;
     long long pattern;         /* changes whenever row_start and row_cols do */
-    int *lock_start;           /* nh + 1: hinge h's columns are lock_cols[lock_start[h]..) */
-    const int *lock_cols;
     int *row_locks, *row_hinges; /* capacity: each active row's lock and hinge, or -1 */
 } dep_constraints;
 
@@ -81,6 +79,9 @@ void dep_cs_transpose_times(const dep_constraints *cs, const double *J, const do
    coordinates' sizes (system->scales), x the pass's vector (q, qd or qdd): the change of the
    row that moving each coordinate by its weight's unit makes (docs/method.md, 2). */
 void dep_cs_sizes(const dep_constraints *cs, const double *J, const double *x, double *size);
+/* Both, out = J x and size, in one pass over the pattern. */
+void dep_cs_times_sized(const dep_constraints *cs, const double *J, const double *x,
+                        double *out, double *size);
 /* out_i = sum_j |J_ij| m_j (m >= 0: the sizes of the terms x_j is made of, the round-off
    scale of J x); out_j = sum_i |J_ij| |y_i| (the sizes of the terms of J^T y). */
 void dep_cs_abs_times(const dep_constraints *cs, const double *J, const double *m, double *out);

@@ -31,13 +31,12 @@ static void measure_acceleration(void *context, const double *lam, int sized,
     } else {
         dep_mass_solve(&w->system->mass, w->jt, out->x);
     }
-    dep_cs_times(w->cs, a->J, out->x, out->v);
+    dep_cs_times_sized(w->cs, a->J, out->x, out->v, out->size);
     for (int i = 0; i < nc; ++i) {
         out->v[i] = w->gamma[i] - out->v[i];
     }
     out->J = a->J;
     out->jacobian_id = a->jacobian_id;
-    dep_cs_sizes(w->cs, a->J, out->x, out->size);
     if (sized) {
         dep_pass_magnitude(w->mp, a->J, nc, lam, 1.0, out->x, w->gamma, out->magnitude);
     }
@@ -98,13 +97,12 @@ static void measure_projection(void *context, const double *mu, int sized,
     for (int j = 0; j < nq; ++j) {
         out->x[j] = pr->qd[j] - solved[j];
     }
-    dep_cs_times(pr->mp->cs, pr->J, out->x, out->v);
+    dep_cs_times_sized(pr->mp->cs, pr->J, out->x, out->v, out->size);
     for (int a = 0; a < nc; ++a) {
         out->v[a] = -out->v[a] - pr->phi_t[a];
     }
     out->J = pr->J;
     out->jacobian_id = pr->jacobian_id;
-    dep_cs_sizes(pr->mp->cs, pr->J, out->x, out->size);
     if (sized) { /* qd+ is the difference of qd and M^-1 J^T mu: an impact that locks the
                     whole mechanism leaves it near nought (the accordion's last latch) */
         for (int j = 0; j < nq; ++j) {

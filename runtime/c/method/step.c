@@ -321,13 +321,12 @@ static void measure_velocity(void *context, const double *lam1, int sized,
     for (int j = 0; j < nq; ++j) {
         out->x[j] = pos->rk.y1[nq + j] + stepper->dqd[j];
     }
-    dep_cs_times(stepper->constraints, pos->J, out->x, out->v);
+    dep_cs_times_sized(stepper->constraints, pos->J, out->x, out->v, out->size);
     for (int i = 0; i < nc; ++i) {
         out->v[i] = -out->v[i] - stepper->phi_t1[i];
     }
     out->J = pos->J;
     out->jacobian_id = pos->jacobian_id;
-    dep_cs_sizes(stepper->constraints, out->J, out->x, out->size);
     if (sized) {
         dep_pass_magnitude(&stepper->mp, out->J, nc, lam1, stepper->h * stepper->profile.velocity,
                            out->x, stepper->phi_t1, out->magnitude);

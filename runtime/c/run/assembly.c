@@ -43,8 +43,10 @@ static double hinge_times(const assembly *x, int k, const double *v)
 {
     const dep_constraints *cs = x->cs;
     double sum = 0.0;
-    for (int n = cs->lock_start[x->target[k]]; n < cs->lock_start[x->target[k] + 1]; ++n) {
-        sum += x->H[n] * v[cs->lock_cols[n]];
+    const int *hinge_start = cs->system->hinge_start;
+    const int *cols = cs->system->model->hinge_jacobian_cols;
+    for (int n = hinge_start[x->target[k]]; n < hinge_start[x->target[k] + 1]; ++n) {
+        sum += x->H[n] * v[cols[n]];
     }
     return sum;
 }

@@ -174,7 +174,8 @@ void dep_sens_jacobian_tangent(dep_run *run, double t, const double *q, const do
         if (row->kind == DEP_ROW_LINEAR) {
             memset(x->dJ + start, 0, (size_t)n * sizeof(double));
         } else {
-            memcpy(x->dJ + start, x->dJh + cs->lock_start[row->hinge], (size_t)n * sizeof(double));
+            memcpy(x->dJ + start, x->dJh + cs->system->hinge_start[row->hinge],
+                   (size_t)n * sizeof(double));
         }
     }
 }
@@ -240,8 +241,8 @@ void dep_sens_motion_base(dep_run *run, double t, const double *q, const double 
         m->hinge_jacobian(q, run->p, x->Jh);
     }
     if (forcing) {
-        dep_hinge_torques(system, q, qd, NULL, x->tau);
         m->hinge_rates(q, qd, run->p, x->rate);
+        dep_hinge_torques(system, q, x->rate, NULL, x->tau);
         m->hinge_angles(q, run->p, x->theta);
     }
     x->base_id = x->J_id;

@@ -100,16 +100,18 @@ void dep_friction_law(const dep_system *system, const double *q, const double *q
 
 /* The torques on the hinge angles (nh), to add as J^T tau to the model's force; the friction
    torques given (nh) or, with NULL, by the law. */
-void dep_hinge_torques(const dep_system *system, const double *q, const double *qd,
+void dep_hinge_torques(const dep_system *system, const double *q, const double *rates,
                        const double *friction, double *tau)
 {
     const dep_model *model = system->model;
     int have_angles = 0;
     memset(tau, 0, (size_t)system->nh * sizeof *tau);
-    model->hinge_rates(q, qd, system->p, system->rates);
+    if (rates != system->rates) {
+        memcpy(system->rates, rates, (size_t)system->nh * sizeof *rates);
+    }
     for (int i = 0; i < system->nh; ++i) {
         const dep_hinge_mechanics *h = &system->hinges[i];
-        double rate = system->rates[i];
+        double rate = rates[i];
         if (h->has_friction) {
             system->friction[i] = friction != NULL ? friction[i] : dep_friction_torque(h, rate);
             tau[i] += system->friction[i];

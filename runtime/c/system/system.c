@@ -95,8 +95,15 @@ int dep_system_init(dep_system *system, const dep_model *model, const double *p,
     system->hinge_jacobian = dep_doubles(arena, (size_t)model->nhnz + 1);
     system->torque_force = dep_doubles(arena, (size_t)model->nq + 1);
     system->scales = dep_doubles(arena, (size_t)model->nq + 1);
+    system->hinge_start = dep_bytes(arena, ((size_t)nh + 1) * sizeof *system->hinge_start);
     if (arena->failed) {
         return dep_plain_error(error, DEP_MEMORY_ERROR, "out of memory");
+    }
+    for (int h = 0, n = 0; h <= nh; ++h) { /* HINGE_JACOBIAN_ROWS is sorted row-major */
+        system->hinge_start[h] = n;
+        while (h < nh && n < model->nhnz && model->hinge_jacobian_rows[n] == h) {
+            ++n;
+        }
     }
     if ((status = dep_hinges_read(system, mechanics, arena, error)) != DEP_OK) {
         return status;
@@ -125,8 +132,22 @@ void dep_hinge_transpose_times(const dep_system *system, const double *J_h, cons
     }
 }
 
+/* out (nh) = J_h x: the hinge rates for x = qd. */
+void dep_hinge_times(const dep_system *system, const double *J_h, const double *x, double *out)
+{
+    const int *cols = system->model->hinge_jacobian_cols;
+    for (int h = 0; h < system->nh; ++h) {
+        double sum = 0.0;
+        for (int k = system->hinge_start[h]; k < system->hinge_start[h + 1]; ++k) {
+            sum += J_h[k] * x[cols[k]];
+        }
+        out[h] = sum;
+    }
+}
+
 /* f (nq): the model's force plus J_h^T tau of the hinge torques (laws.c), the friction
-   torques given (nh) or, with NULL, by the law. */
+   torques given (nh) or, with NULL, by the law; the rates by J_h, which the torques need
+   anyway (a spatial hinge's rate function costs about as much as its Jacobian). */
 static void force(const dep_system *system, const double *q, const double *qd, double t,
                   const double *friction, double *f)
 {
@@ -135,8 +156,9 @@ static void force(const dep_system *system, const double *q, const double *qd, d
     if (!dep_hinge_forcing(system)) {
         return;
     }
-    dep_hinge_torques(system, q, qd, friction, system->tau);
     model->hinge_jacobian(q, system->p, system->hinge_jacobian);
+    dep_hinge_times(system, system->hinge_jacobian, qd, system->rates);
+    dep_hinge_torques(system, q, system->rates, friction, system->tau);
     dep_hinge_transpose_times(system, system->hinge_jacobian, system->tau,
                               system->torque_force);
     for (int j = 0; j < system->nq; ++j) {

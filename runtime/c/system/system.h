@@ -89,6 +89,7 @@ typedef struct dep_system {
        coordinate_scales: its length for a position, 1 for an angle), for its rate per second
        and its acceleration per second squared alike; and sum_j M_jj s_j^2 (J), a work's */
     double *scales, energy_scale;
+    int *hinge_start; /* nh + 1: hinge h's entries of J_h are [hinge_start[h], hinge_start[h + 1]) */
 } dep_system;
 
 /* mechanics 0: every hinge free (friction by the regularised law, no latch or stop modes). */
@@ -101,6 +102,8 @@ int dep_hinges_read(dep_system *system, int mechanics, dep_arena *arena, dep_err
 /* out (nq) = J_h^T tau, J_h the hinge Jacobian's non-zeros (model->hinge_jacobian). */
 void dep_hinge_transpose_times(const dep_system *system, const double *J_h, const double *tau,
                                double *out);
+/* out (nh) = J_h x (the hinge rates for x = qd, as model->hinge_rates gives them). */
+void dep_hinge_times(const dep_system *system, const double *J_h, const double *x, double *out);
 void dep_system_force(const dep_system *system, const double *q, const double *qd, double t,
                       double *f);
 void dep_system_dissipation(const dep_system *system, const double *q, const double *qd,
@@ -119,8 +122,9 @@ double dep_friction_slope(const dep_hinge_mechanics *h, double rate);
 void dep_friction_law(const dep_system *system, const double *q, const double *qd,
                       double *friction);
 int dep_hinge_forcing(const dep_system *system);
-/* friction: the friction torques (nh) to apply, or NULL for the law at (q, qd) */
-void dep_hinge_torques(const dep_system *system, const double *q, const double *qd,
+/* rates: the hinge rates at the state (nh), kept in system->rates for dep_hinge_power;
+   friction: the friction torques (nh) to apply, or NULL for the law at those rates */
+void dep_hinge_torques(const dep_system *system, const double *q, const double *rates,
                        const double *friction, double *tau);
 void dep_hinge_dissipation(const dep_system *system, const double *q, const double *qd,
                            double *power);
