@@ -193,28 +193,29 @@ def test_a_chain_of_ten_parallelograms_passes_its_singular_positions(build):
     # V = (n + 1) (m g L / 2) sin theta + n m g L sin theta
     angle, _ = one_angle(result.times, 10, (n + 1) / 3 + n, (n + 1) * 9.81 / 2 + n * 9.81)
     assert np.count_nonzero(np.diff(np.sign(np.sin(angle))) != 0) >= 6
-    assert np.max(np.abs(result.output("crank") - angle)) < 100 * tol
+    assert np.max(np.abs(result.output("crank") - angle)) < 10 * tol
     energy = result.output("energy")
-    assert np.max(np.abs(energy - energy[0])) < 30 * tol * np.max(result.output("kinetic"))
+    assert np.max(np.abs(energy - energy[0])) < 2 * tol * np.max(result.output("kinetic"))
 
 
 def test_two_parallelograms_keep_their_energy_through_35_crossings(build):
     """Two parallelograms sharing their cranks, 20 s: the coupler forces along the pivots' line
     grow as 1/theta towards the horizontal, which no polynomial in time follows, while the force
     Phi_q^T lambda they exert stays smooth. Near each crossing the run prescribes that force
-    (docs/method.md, 6a) and follows the one-angle equation as a single parallelogram does:
-    a run whose steps each hold their local error within tol, over 35 crossings. With the
-    multipliers' profile alone the crossings cost about a tol of energy each (37 tol in all,
-    the crank 600 tol off at the end)."""
+    (docs/method.md, 6a), keeps doing so until its next event, and follows the one-angle
+    equation as a single parallelogram does: a run whose steps each hold their local error
+    within tol, over 35 crossings, within 10 tol at the end. With the multipliers' profile
+    alone the crossings cost about a tol of energy each (37 tol in all, the crank 600 tol off
+    at the end); handing back to it between crossings left the crank 5 tol off."""
     tol, n = 1e-8, 2
     result = build(parallelogram_chain(n, 20.0), "chain2_20s").run(tol=tol)
     assert result.times[-1] == pytest.approx(20.0)
     assert result.stats.force_steps > 0
     angle, _ = one_angle(result.times, 10, (n + 1) / 3 + n, (n + 1) * 9.81 / 2 + n * 9.81)
     assert np.count_nonzero(np.diff(np.sign(np.sin(angle))) != 0) >= 35
-    assert np.max(np.abs(result.output("crank") - angle)) < 50 * tol
+    assert np.max(np.abs(result.output("crank") - angle)) < 10 * tol
     energy = result.output("energy")
-    assert np.max(np.abs(energy - energy[0])) < 5 * tol * np.max(result.output("kinetic"))
+    assert np.max(np.abs(energy - energy[0])) < 2 * tol * np.max(result.output("kinetic"))
 
 
 def test_a_mechanism_away_from_singular_positions_keeps_the_multipliers_profile(build):

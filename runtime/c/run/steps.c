@@ -55,14 +55,16 @@
    FORCE_CONDITION of its diagonal (its rows within about a tenth of a radian of dependent: a
    singular position's neighbourhood, or members as thin as a tenth of their length) and the
    multipliers' interpolation error leads the step's errors and is at least FORCE_LEADS of
-   tol. A step takes it when its error is below the multipliers' by FORCE_MARGIN, and keeps it
-   while it is below by FORCE_STAY: each of its evaluations factorises S at its own state (a
-   reflector arm's thin members: 1.6 times the instructions where it took it throughout), so
-   the run pays for it where the multipliers' profile misses by far, at a pole. */
+   tol. A step takes it when its error is below the multipliers' by FORCE_MARGIN, and the run
+   keeps it until its next event or restart: each of its evaluations factorises S at its own
+   state (a reflector arm's thin members: 1.6 times the instructions where it took it
+   throughout), so the run pays for it once the multipliers' profile has missed by far, at a
+   pole. Handing back to the multipliers' profile between singular positions, by the same
+   comparison or by S's pivot, cost a chain of parallelograms 5 to 50 times the error of
+   keeping it (bench/NOTES.md, singular positions). */
 #define FORCE_CONDITION 1e-2
 #define FORCE_LEADS 0.1
 #define FORCE_MARGIN 4.0
-#define FORCE_STAY 2.0
 
 /* Gives the interpolant of `end`, a step from run->state, the accepted point before it. */
 void dep_run_attach_prior(const dep_run *run, dep_outcome *end)
@@ -263,8 +265,9 @@ static double force_error(dep_run *run, const dep_outcome *outcome, const double
 /* The profile the next step takes (run->by_force_next), from the step just taken: near a
    singular position, where the multipliers grow as one over the distance to it and a
    polynomial misses them, the rows' forces' when their interpolation error is the smaller by
-   far (FORCE_CONDITION ... FORCE_STAY), else the multipliers'. e->lam becomes the error of
-   the profile this step took. */
+   far (FORCE_CONDITION ... FORCE_MARGIN), and after a step that took the forces' profile the
+   same again; else the multipliers'. e->lam becomes the error of the profile this step
+   took. */
 static void choose_profile(dep_run *run, const dep_outcome *outcome, const double *scale,
                            dep_step_errors *e)
 {
@@ -280,7 +283,7 @@ static void choose_profile(dep_run *run, const dep_outcome *outcome, const doubl
     if (error < 0.0) {
         return;
     }
-    run->by_force_next = (by_force ? FORCE_STAY : FORCE_MARGIN) * error < e->lam;
+    run->by_force_next = by_force || FORCE_MARGIN * error < e->lam;
     if (by_force) {
         e->lam = error;
         e->lam_order = outcome->profile.nodes + 2;
