@@ -5,7 +5,9 @@ same expressions of its two members' coordinates and its own named constants, on
 symbols differ. derive marks each such part of a function's results as a `Block`: where its
 entries are (`places`), its own steps (a hinge's vectors, S, C) and `roles`, each of its
 symbols with the placeholder it stands for in the block's `template` (member A's coordinates
-`#a0`.., their rates `#da0`.., B's `#b0`.., `#db0`.., its named constants and steps `#c.<name>`).
+`#a0`.., their rates `#da0`.., B's `#b0`.., `#db0`.., its rows' multipliers `#lam0`.., its
+named constants and steps `#c.<name>`). A block of a sum (Phi_q^T lambda: each row block's
+terms of each column) gives its terms, which its kernel's call adds to the entries.
 Blocks whose templates are equal are of one kind (`kinds`): lowering writes a kind used
 twice or more once, as a kernel (a C function called per block), instead of one copy per
 block. Pure mathematics: symbols and expressions, no code."""
@@ -22,7 +24,7 @@ from .tangent import needed_steps
 Place = tuple[int, int, int]  # (result, row, column) of one entry of a function's results
 # The placeholder groups of a kernel's arguments, in order: member A's coordinates and their
 # rates, member B's, then the constants (the named ones, the steps' inputs and parameters).
-COORDINATE_GROUPS = ("a", "da", "b", "db")
+COORDINATE_GROUPS = ("a", "da", "b", "db", "lam")
 CONSTANTS = "c"
 
 
@@ -36,6 +38,9 @@ class Block:
     places: tuple[Place, ...]
     steps: tuple[Group, ...]
     roles: tuple[tuple[sympy.Symbol, sympy.Symbol], ...]
+    # a block of a sum: its terms of each place's entry (the entry is the sum of its blocks'
+    # terms and the rest); None: the block's entries are the places' entries whole
+    terms: tuple[sympy.Expr, ...] | None = None
 
 
 @dataclass(frozen=True)
@@ -58,6 +63,7 @@ class Instance:
     kind: int
     args: tuple[tuple[sympy.Expr, ...], ...]
     places: tuple[Place, ...]
+    terms: tuple[sympy.Expr, ...] | None = None  # a block of a sum's terms (Block.terms)
 
 
 def kinds(blocks: tuple[Block, ...], values: dict[Place, sympy.Expr], repeated: int = 2
@@ -69,16 +75,17 @@ def kinds(blocks: tuple[Block, ...], values: dict[Place, sympy.Expr], repeated: 
     found: dict[tuple, list] = {}
     for block in blocks:
         roles = dict(block.roles)
-        outputs = tuple(values[place].xreplace(roles) for place in block.places)
+        entries = block.terms if block.terms is not None \
+            else [values[place] for place in block.places]
+        outputs = tuple(value.xreplace(roles) for value in entries)
         steps = tuple(tuple((symbol.xreplace(roles), value.xreplace(roles))
                             for symbol, value in group)
-                      for group in needed_steps(block.steps, [values[place]
-                                                              for place in block.places]))
-        key = (block.label, steps, outputs)
+                      for group in needed_steps(block.steps, entries))
+        key = (block.label, block.terms is not None, steps, outputs)
         found.setdefault(key, []).append(block)
     result_kinds: list[Kind] = []
     instances: list[Instance] = []
-    for (label, steps, outputs), members in found.items():
+    for (label, _, steps, outputs), members in found.items():
         if len(members) < repeated:
             continue
         kind = Kind(label, steps, outputs, _groups(steps, outputs, members[0]))
@@ -86,7 +93,7 @@ def kinds(blocks: tuple[Block, ...], values: dict[Place, sympy.Expr], repeated: 
             actual = {placeholder: symbol for symbol, placeholder in block.roles}
             args = tuple(tuple(actual.get(x, x) for x in placeholders)
                          for _, placeholders in kind.groups)
-            instances.append(Instance(len(result_kinds), args, block.places))
+            instances.append(Instance(len(result_kinds), args, block.places, block.terms))
         result_kinds.append(kind)
     instances.sort(key=lambda instance: instance.places[0])
     return tuple(result_kinds), tuple(instances)
@@ -118,6 +125,11 @@ def _group(placeholder: sympy.Symbol) -> str:
     if name.startswith("#c."):
         return CONSTANTS
     return name[1:].rstrip("0123456789")
+
+
+def multiplier_roles(multipliers) -> list[tuple[sympy.Symbol, sympy.Symbol]]:
+    """A block's rows' multipliers as the placeholders `#lam0`.. (group "lam")."""
+    return [(s, sympy.Symbol(f"#lam{k}")) for k, s in enumerate(multipliers)]
 
 
 def member_roles(side: str, coordinates, rates) -> list[tuple[sympy.Symbol, sympy.Symbol]]:

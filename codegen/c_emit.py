@@ -158,7 +158,8 @@ def _call_lines(call: Call, results) -> tuple[str, ...]:
         lines.append(f"double out[{len(call.outputs)}];")
     lines.append(f"{call.kernel}({', '.join(args + [call.out or 'out'])});")
     if call.out is None:
-        lines += [f"{results[r].name}[{flat}] = out[{k}];"
+        operator = "+=" if call.accumulate else "="
+        lines += [f"{results[r].name}[{flat}] {operator} out[{k}];"
                   for k, (r, flat) in enumerate(call.outputs)]
     if len(lines) == 1:
         return tuple(lines)

@@ -283,7 +283,7 @@ def derive(model: ir.Model) -> SymbolicSystem:
                   "hinge_jacobian": _places([hinge_jacobian[i, j]
                                              for i, j in hinge_jacobian_pattern])}
         blocks = spatial_blocks(model, kin, parts, phi_q_pattern, hinge_jacobian_pattern,
-                                values)
+                                values, (phi_q, entries, lam))
     system = SymbolicSystem(
         name=model.name,
         constants=tuple(((symbol, value),) for symbol, value in constants.items()),

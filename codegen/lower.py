@@ -68,6 +68,7 @@ class Call:
     pointers: tuple[str | None, ...]  # per group: "q + 12", or None (gathered)
     outputs: tuple[tuple[int, int], ...]  # (result, flat) per output
     out: str | None  # "phi + 6" when the outputs are consecutive entries of one result
+    accumulate: bool = False  # the outputs are added to the entries (a sum's block)
 
 
 @dataclass(frozen=True)
@@ -250,9 +251,14 @@ def lower_function(system: SymbolicSystem, spec: FunctionSpec,
     kernel_kinds, instances = kinds(spec.blocks, {
         place: entries[place[0]].get(place[1:], sympy.Integer(0))
         for block in spec.blocks for place in block.places}) if spec.blocks else ((), ())
-    covered = {place for instance in instances for place in instance.places}
-    places = [place for place in places if place not in covered]
-    exprs = [entries[r][i, j] for r, i, j in places]
+    covered = {place for instance in instances if instance.terms is None
+               for place in instance.places}
+    rest = {place: entries[place[0]][place[1:]] for place in places if place not in covered}
+    for instance in instances:  # a sum's blocks: their calls add their terms
+        for place, term in zip(instance.places or (), instance.terms or ()):
+            rest[place] = rest.get(place, sympy.Integer(0)) - term
+    places = [place for place in places if place in rest and rest[place] != 0]
+    exprs = [rest[place] for place in places]
     # each call's arguments follow the entries, as one tuple each
     arguments = [value for instance in instances for group in instance.args for value in group]
     names = sympy.numbered_symbols("x")
@@ -271,7 +277,8 @@ def lower_function(system: SymbolicSystem, spec: FunctionSpec,
     items = [(place, value, None) for place, value in zip(places, reduced)] + [
         (instance.places[0], sympy.Tuple(*values), call)
         for instance, (values, call) in zip(instances, calls)]
-    items.sort(key=lambda item: item[0])
+    # a sum's calls after every entry (they add to the entries)
+    items.sort(key=lambda item: (item[2] is not None and item[2].accumulate, item[0]))
     order = _demand_order(definitions, [value for _, value, _ in items])
     results_entries: list[list[Entry]] = [[] for _ in spec.results]
     statements: list[Statement] = []
@@ -336,10 +343,12 @@ def _calls(spec: FunctionSpec, kernels: tuple[KernelView, ...], instances, value
         outputs = tuple((r, i * spec.results[r][1].cols + j) for r, i, j in instance.places)
         results = {r for r, _ in outputs}
         flats = [flat for _, flat in outputs]
-        out = None
-        if len(results) == 1 and flats == list(range(flats[0], flats[0] + len(flats))):
+        out, accumulate = None, instance.terms is not None
+        if not accumulate and len(results) == 1 \
+                and flats == list(range(flats[0], flats[0] + len(flats))):
             out = _offset(spec.results[outputs[0][0]][0], flats[0])
-        calls.append((mine, Call(kernel.name, tuple(args), tuple(pointers), outputs, out)))
+        calls.append((mine, Call(kernel.name, tuple(args), tuple(pointers), outputs, out,
+                                 accumulate)))
     return calls
 
 

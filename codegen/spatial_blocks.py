@@ -8,7 +8,7 @@ import sympy
 
 from depsim.dsl import ir
 
-from .blocks import Block, member_roles, named_roles
+from .blocks import Block, member_roles, multiplier_roles, named_roles
 from .spatial import SpatialKinematics
 
 
@@ -65,10 +65,11 @@ def row_derivatives(parts: list[RowPart], kin: SpatialKinematics, phi
 
 
 def spatial_blocks(model: ir.Model, kin: SpatialKinematics, parts: list[RowPart],
-                   phi_q_pattern, hinge_jacobian_pattern, system_values: dict
+                   phi_q_pattern, hinge_jacobian_pattern, system_values: dict, transpose
                    ) -> tuple[tuple[str, tuple[Block, ...]], ...]:
     """Per function name, its blocks (`parts`: row_parts); `system_values`: per function,
-    its entries' expressions by place (to find each block's named symbols)."""
+    its entries' expressions by place (to find each block's named symbols); `transpose`:
+    (Phi_q, its entries' names as steps, the multipliers) of Phi_q^T lambda."""
     rates = dict(zip(kin.symbols.q, kin.symbols.qd))
     entries_of = _entries_by_row(phi_q_pattern)
     blocks: dict[str, list[Block]] = {"phi": [], "phi_q": [], "gamma": []}
@@ -78,6 +79,14 @@ def spatial_blocks(model: ir.Model, kin: SpatialKinematics, parts: list[RowPart]
         for name, found in places.items():
             blocks[name].append(_block(kin, label, tuple(found), (), members, prefixes,
                                        system_values[name], rates))
+    phi_q, named, lam = transpose
+    by_row: dict[int, list] = {}
+    for (i, j), value in sorted(phi_q.todok().items()):
+        by_row.setdefault(i, []).append((j, value))
+    transpose = (by_row, dict(named), lam)
+    blocks["phi_q_transpose_times"] = [
+        _transpose_block(kin, label, rows, members, prefixes, transpose, rates)
+        for label, rows, members, prefixes in parts]
     gradient_of = _entries_by_row(hinge_jacobian_pattern)
     for name in ("hinge_angles", "hinge_rates", "hinge_jacobian", "hinge_gamma"):
         blocks[name] = []
@@ -106,6 +115,33 @@ def _entries_by_row(pattern) -> dict[int, list[int]]:
     for k, (i, _) in enumerate(pattern):
         found.setdefault(i, []).append(k)
     return found
+
+
+def _transpose_block(kin: SpatialKinematics, label: str, rows, members, prefixes, transpose,
+                     rates) -> Block:
+    """A row block's terms of Phi_q^T lambda: per column its rows touch, the sum of their
+    entries (named steps, derive._transpose_times) times their multipliers; `transpose`:
+    (row -> its (column, entry) pairs, entry name -> value, the multipliers)."""
+    by_row, names, lam = transpose
+    symbols = set().union(*(names.get(sympy.Symbol(f"@Phi_q{i},{j}"), value).free_symbols
+                            for i in rows for j, value in by_row.get(i, ())))
+    roles = block_roles(kin, members, prefixes, symbols, rates)
+    roles += multiplier_roles([lam[i] for i in rows])
+    column_role = dict(roles)
+    terms: dict[int, list[sympy.Expr]] = {}
+    steps = []
+    for k, i in enumerate(rows):
+        for j, value in by_row.get(i, ()):
+            name = sympy.Symbol(f"@Phi_q{i},{j}")
+            if name in names:
+                steps.append((name, names[name]))
+                roles.append((name, sympy.Symbol(
+                    f"#c.Phi_q{k},{column_role[kin.symbols.q[j]].name[1:]}")))
+                value = name
+            terms.setdefault(j, []).append(value * lam[i])
+    places = tuple((0, j, 0) for j in sorted(terms))
+    return Block(label, places, (tuple(steps),) if steps else (), tuple(roles),
+                 tuple(sympy.Add(*terms[j]) for j in sorted(terms)))
 
 
 def block_roles(kin: SpatialKinematics, members, prefixes, symbols, rates
