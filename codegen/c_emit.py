@@ -29,7 +29,7 @@ from depsim.runtime.core import (CFLAGS, CORE_FOLDER, MODEL_EXTRA_CFLAGS, PROGRA
 from .c_printer import CPrinter, c_comment, c_double, c_file_stem, c_string
 from .derive import SymbolicSystem, derive
 from .emit import DEPSIM_VERSION, ENVIRONMENT
-from .lower import FunctionView, ModuleView, lower_module
+from .lower import Call, FunctionView, KernelView, ModuleView, lower_module
 
 # One Environment (emit.ENVIRONMENT's settings and loader), with the C literal filters.
 C_ENVIRONMENT = ENVIRONMENT.overlay()
@@ -50,12 +50,23 @@ PROGRAM_FILES = tuple(Path(name).name for name in PROGRAM_SOURCES)
 
 @dataclass(frozen=True)
 class CStatement:
-    """`const double name = value;` (a temporary, `result` empty) or `result[flat] = value;`."""
+    """`const double name = value;` (a temporary, `result` empty) or `result[flat] = value;`,
+    or a kernel's call as its lines (`lines`, the others empty)."""
 
     result: str
     name: str
     value: str
     note: str
+    lines: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class CKernel:
+    """`static void name(declaration)`: a kind of blocks' kernel (lower.KernelView)."""
+
+    name: str
+    declaration: str
+    statements: tuple[CStatement, ...]
 
 
 @dataclass(frozen=True)
@@ -75,11 +86,14 @@ class CFunction:
     unused: tuple[str, ...]  # parameters the body never reads: `(void)name;`
     results: tuple[CResult, ...]
     statements: tuple[CStatement, ...]
+    kernels: tuple[CKernel, ...] = ()
 
     @property
     def length(self) -> int:
-        """Characters of its body's names and expressions."""
-        return sum(len(s.name) + len(s.value) for s in self.statements)
+        """Characters of its body's names and expressions (and its kernels')."""
+        return sum(len(s.name) + len(s.value) + sum(map(len, s.lines))
+                   for s in self.statements + tuple(s for k in self.kernels
+                                                    for s in k.statements))
 
 
 @dataclass(frozen=True)
@@ -134,9 +148,37 @@ def _uses(texts: list[str], arg: str) -> bool:
     return any(pattern.search(text) for text in texts)
 
 
+def _call_lines(call: Call, results) -> tuple[str, ...]:
+    """A kernel's call: the groups not passed as pointers gathered into arrays of their
+    group's name, the outputs written in place or through `out`, in a block of their own."""
+    lines = [f"const double {group}[{len(values)}] = {{{', '.join(values)}}};"
+             for (group, values), pointer in zip(call.args, call.pointers) if pointer is None]
+    args = [pointer or group for (group, _), pointer in zip(call.args, call.pointers)]
+    if call.out is None:
+        lines.append(f"double out[{len(call.outputs)}];")
+    lines.append(f"{call.kernel}({', '.join(args + [call.out or 'out'])});")
+    if call.out is None:
+        operator = "+=" if call.accumulate else "="
+        lines += [f"{results[r].name}[{flat}] {operator} out[{k}];"
+                  for k, (r, flat) in enumerate(call.outputs)]
+    if len(lines) == 1:
+        return tuple(lines)
+    return ("{",) + tuple(f"    {line}" for line in lines) + ("}",)
+
+
+def _kernel(k: KernelView) -> CKernel:
+    groups = [f"const double *restrict {group}" for group, _ in k.groups]
+    statements = tuple(
+        CStatement("", s.assignment.name, s.assignment.value, "") if s.result < 0
+        else CStatement("out", str(s.entry.flat), s.entry.value, "") for s in k.statements)
+    return CKernel(k.name, ", ".join(groups + ["double *restrict out"]), statements)
+
+
 def c_function(f: FunctionView) -> CFunction:
     """The C view of one lowered function."""
     texts = [a.value for a in f.temporaries] + [e.value for r in f.results for e in r.entries]
+    texts += [", ".join(values) + "," + (pointer or "") for s in f.statements if s.call
+              for (_, values), pointer in zip(s.call.args, s.call.pointers)]
     unused = [a for a in f.args if not _uses(texts, a)]
     results = []
     for r in f.results:
@@ -144,11 +186,13 @@ def c_function(f: FunctionView) -> CFunction:
         for extent in r.shape:
             size *= extent
         undefined = sum(e.value == "NAN" for e in r.entries)
-        fill = "0.0" if len(r.entries) < size else "NAN" if 2 * undefined > size else ""
+        fill = "0.0" if len(r.entries) + r.kernel_entries < size \
+            else "NAN" if 2 * undefined > size else ""
         results.append(CResult(r.name, size, fill))
         if size == 0:  # an empty result (no dissipators, no outputs): nothing to write
             unused.append(r.name)
     statements = tuple(
+        CStatement("", "", "", "", _call_lines(s.call, f.results)) if s.call is not None else
         CStatement("", s.assignment.name, s.assignment.value, "") if s.result < 0 else
         CStatement(f.results[s.result].name, str(s.entry.flat), s.entry.value,
                    "" if len(s.entry.index) == 1
@@ -156,7 +200,8 @@ def c_function(f: FunctionView) -> CFunction:
         for s in f.statements
         if s.result < 0 or not (results[s.result].fill == "NAN" and s.entry.value == "NAN"))
     declaration = interface.c_declaration(_INTERFACE[f.name], restrict=True)
-    return CFunction(f.name, declaration, f.summary, tuple(unused), tuple(results), statements)
+    return CFunction(f.name, declaration, f.summary, tuple(unused), tuple(results), statements,
+                     tuple(map(_kernel, f.kernels)))
 
 
 _LITERALS = {"const char *const": c_string, "const double": c_double, "const int": str}
@@ -202,7 +247,7 @@ def c_target(model: ir.Model, system: SymbolicSystem | None = None, tangents: bo
     codegen.fmu, which never asks for tangents) and the generated files of `c_sources`, from
     one lowering."""
     view = lower_module(model, system or derive(model), CPrinter, DEPSIM_VERSION,
-                        tangents=tangents)
+                        tangents=tangents, kernels=True)
     c = c_view(view, tuple(core_folder_files()))
     files = {name: C_ENVIRONMENT.get_template(f"c/{name}.j2").render(
                  c=c, m=view, cflags=" ".join(CFLAGS), model_cflags=" ".join(MODEL_EXTRA_CFLAGS))

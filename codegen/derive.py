@@ -16,6 +16,7 @@ from depsim.dsl import ir
 from depsim.dsl.attributes import HINGE_PROPERTIES
 
 from .assembly import Group, assemble
+from .blocks import Block
 from .errors import CodegenError
 from .expr import to_sympy
 from .kinematics import Coordinates, Kinematics, core_sliders
@@ -25,6 +26,8 @@ from .spatial import SYSTEM_STATE as SPATIAL_SYSTEM_STATE
 from .spatial import (SpatialKinematics, spatial_coordinate_scales, spatial_mass_matrix,
                       spatial_rows)
 from .spatial_assembly import assemble_spatial, hinge_turns
+from .spatial_hinges import HingeDerivatives
+from .spatial_blocks import row_derivatives, row_parts, spatial_blocks
 from .system import SYSTEM_STATE, OutputScope, RowIndex, run_value_names
 
 
@@ -42,7 +45,7 @@ class SymbolicSystem:
     # ones before it at the start of every generated function that uses it
     constants: tuple[Group, ...]
     # a spatial model's hinges' vectors, S, C and their rates named while deriving
-    # (SpatialKinematics.hinge_derivatives): steps of q, qd and the constants, in order
+    # (codegen/spatial_hinges.py): steps of q, qd and the constants, in order
     hinge_steps: tuple[Group, ...]
     coordinates: tuple[str, ...]  # NQ names, e.g. "yoke.phi"
     q: tuple[sympy.Symbol, ...]
@@ -98,6 +101,9 @@ class SymbolicSystem:
     stiffness_damping: ImmutableMatrix  # (NKZ, 1) D = -df/dqd of their damping there (N s/m)
     limit_values: ImmutableMatrix  # (NLIM, 1) each range check's value (Model.limits)
     limit_bounds: ImmutableMatrix  # (NLIM, 1) its bound (an ordered pair), else 0
+    # per function name, the repeated parts of its results (codegen/blocks.py: a spatial
+    # model's frame rows, hinge rows and hinge functions); none for a planar model
+    blocks: tuple[tuple[str, tuple[Block, ...]], ...] = ()
 
 
 def column(values) -> ImmutableMatrix:
@@ -206,6 +212,24 @@ def _rows_gamma(phi: ImmutableMatrix, phi_q: ImmutableSparseMatrix,
     return column(-second_rate(row, rates)[1] for row in phi)
 
 
+def _rows_derivatives(phi: ImmutableMatrix, parts, kin, symbols: Coordinates, spatial: bool
+                      ) -> tuple[ImmutableSparseMatrix, ImmutableMatrix]:
+    """Phi_q and gamma of the rows: a spatial model's rows without t by blocks of a kind
+    (spatial_blocks.row_derivatives: each kind's rows differentiated once), the rows of no
+    block and every other model's as they are (jacobian, _rows_gamma)."""
+    if not parts or phi.has(symbols.t):
+        phi_q = jacobian(phi, symbols.q)
+        return phi_q, _rows_gamma(phi, phi_q, symbols, spatial)
+    entries, gamma = row_derivatives(parts, kin, phi)
+    rest = [i for i in range(phi.rows) if i not in gamma]
+    rest_phi = column(phi[i] for i in rest)
+    rest_q = jacobian(rest_phi, symbols.q)
+    entries.update({(rest[i], j): value for (i, j), value in rest_q.todok().items()})
+    gamma.update(zip(rest, _rows_gamma(rest_phi, rest_q, symbols, True)))
+    return (ImmutableSparseMatrix(phi.rows, len(symbols.q), entries),
+            column(gamma[i] for i in range(phi.rows)))
+
+
 def derive(model: ir.Model) -> SymbolicSystem:
     """Derive the symbolic system of a checked model (parameters stay symbols)."""
     symbols, beams = build_coordinates(model)
@@ -226,7 +250,8 @@ def derive(model: ir.Model) -> SymbolicSystem:
         state_names = SYSTEM_STATE
     q, qd, t = symbols.q, column(symbols.qd), symbols.t
     phi = column(row.residual for row in rows)
-    phi_q = jacobian(phi, q)
+    parts = row_parts(model, kin, tuple(row.joint for row in rows)) if model.spatial else []
+    phi_q, gamma = _rows_derivatives(phi, parts, kin, symbols, model.spatial)
     lam, entries, phi_q_lam = _transpose_times(phi_q)
     phi_t = phi.diff(t)
     sliding = core_sliders(model)  # the sliders after the hinges in the hinge tables
@@ -247,8 +272,18 @@ def derive(model: ir.Model) -> SymbolicSystem:
                                   for i, row in enumerate(rows)}),
                         loads.energies, loads.dissipator_names, loads.springs)
     constants = {}  # the spatial geometry's named constants, in the order they were named
+    phi_q_pattern, hinge_jacobian_pattern = _pattern(phi_q), _pattern(hinge_jacobian)
+    blocks = ()
     if model.spatial:
         constants = {**placing.constants, **kin.constants}
+        values = {"phi": _places(phi), "gamma": _places(gamma),
+                  "phi_q": _places([phi_q[i, j] for i, j in phi_q_pattern]),
+                  "hinge_angles": _places(angles), "hinge_rates": _places(rates),
+                  "hinge_gamma": _places(hinge_gamma),
+                  "hinge_jacobian": _places([hinge_jacobian[i, j]
+                                             for i, j in hinge_jacobian_pattern])}
+        blocks = spatial_blocks(model, kin, parts, phi_q_pattern, hinge_jacobian_pattern,
+                                values, (phi_q, entries, lam))
     system = SymbolicSystem(
         name=model.name,
         constants=tuple(((symbol, value),) for symbol, value in constants.items()),
@@ -260,14 +295,14 @@ def derive(model: ir.Model) -> SymbolicSystem:
         constraint_joints=tuple(row.joint for row in rows),
         constraint_hinges=tuple(row.hinge for row in rows),
         constraint_sliders=tuple(row.slider for row in rows),
-        phi=phi, phi_q=phi_q, phi_q_pattern=_pattern(phi_q), lam=lam,
+        phi=phi, phi_q=phi_q, phi_q_pattern=phi_q_pattern, lam=lam,
         phi_q_entries=entries, phi_q_lam=phi_q_lam, phi_t=phi_t,
-        gamma=_rows_gamma(phi, phi_q, symbols, model.spatial), force=column(loads.force),
+        gamma=gamma, force=column(loads.force),
         hinge_names=tuple(h.name for h in model.hinges)
         + tuple(model.sliders[i].name for i in sliding),
         slider_names=tuple(s.name for s in model.sliders),
         hinge_angles=angles, hinge_rates=rates,
-        hinge_jacobian=hinge_jacobian, hinge_jacobian_pattern=_pattern(hinge_jacobian),
+        hinge_jacobian=hinge_jacobian, hinge_jacobian_pattern=hinge_jacobian_pattern,
         hinge_gamma=hinge_gamma,
         hinge_properties=_hinge_properties(model, kin),
         coordinate_scales=scales,
@@ -287,8 +322,14 @@ def derive(model: ir.Model) -> SymbolicSystem:
         limit_values=column(kin.const(limit.expr) for limit in model.limits),
         limit_bounds=column(kin.const(limit.bound) if limit.bound is not None else 0
                             for limit in model.limits),
+        blocks=blocks,
     )
     return system
+
+
+def _places(values) -> dict[tuple[int, int, int], sympy.Expr]:
+    """A column's entries by their place (0, row, 0) in a function's one result."""
+    return {(0, i, 0): value for i, value in enumerate(values)}
 
 
 def _coordinate_scales(model: ir.Model, kin: Kinematics) -> ImmutableMatrix:
@@ -395,10 +436,11 @@ def _spatial_hinge_derivatives(model: ir.Model, kin, thetas: ImmutableMatrix,
                                           ImmutableMatrix, ImmutableMatrix]:
     """d theta/dq, theta, theta' and -(d theta/dq qd)_q qd of a spatial model's hinge
     entries: a hinge's from its turn written out over named steps
-    (SpatialKinematics.hinge_derivatives), a slider's displacement, bilinear in q,
+    (spatial_hinges: each kind of hinge derived once), a slider's displacement, bilinear in q,
     differentiated as it is."""
     nh = len(model.hinges)
-    parts = [kin.hinge_derivatives(i) for i in range(nh)]
+    hinges = HingeDerivatives(kin)
+    parts = [hinges.of(i) for i in range(nh)]
     entries = {(i, j): value for i, (gradient, *_) in enumerate(parts)
                for j, value in gradient.items()}
     displacements = column(thetas[nh:])

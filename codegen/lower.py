@@ -6,6 +6,7 @@ only their structurally non-zero entries (the arrays start as zeros)."""
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from typing import Callable
 
@@ -18,6 +19,7 @@ from depsim.dsl.limits import LIMIT_KINDS, message_format
 from depsim.runtime import interface
 
 from .assembly import Group
+from .blocks import Block, kinds
 from .derive import SymbolicSystem, column
 from .printing import LoweringError, SlotPrinter
 from .tangent import as_groups, direction, needed_steps, tangent_program
@@ -46,21 +48,49 @@ class Entry:
 
 @dataclass(frozen=True)
 class ResultView:
-    """One returned array: name, shape and its non-zero entries."""
+    """One returned array: name, shape and its non-zero entries (those a kernel call writes
+    not among them: `kernel_entries` of them)."""
 
     name: str
     shape: tuple[int, ...]
     entries: tuple[Entry, ...]
+    kernel_entries: int = 0
+
+
+@dataclass(frozen=True)
+class Call:
+    """A kernel's call for one block: per argument group its values (printed) or, when they
+    are consecutive slots of one array, that array and the first slot; where each output
+    goes (result, flat index), consecutive in one result when `out` names it."""
+
+    kernel: str
+    args: tuple[tuple[str, tuple[str, ...]], ...]  # (group name, values)
+    pointers: tuple[str | None, ...]  # per group: "q + 12", or None (gathered)
+    outputs: tuple[tuple[int, int], ...]  # (result, flat) per output
+    out: str | None  # "phi + 6" when the outputs are consecutive entries of one result
+    accumulate: bool = False  # the outputs are added to the entries (a sum's block)
 
 
 @dataclass(frozen=True)
 class Statement:
     """One line of a function's body: a temporary (`result` is -1) or entry `entry` of result
-    `result`."""
+    `result`, or a kernel's call (`call`, `result` -2)."""
 
     result: int
     assignment: Assignment | None = None
     entry: Entry | None = None
+    call: Call | None = None
+
+
+@dataclass(frozen=True)
+class KernelView:
+    """A kind of blocks written once (codegen/blocks.py): its argument groups (each an array
+    of the group's length), its statements (entries of result 0, `out`), its outputs' count."""
+
+    name: str
+    groups: tuple[tuple[str, int], ...]
+    outputs: int
+    statements: tuple[Statement, ...]
 
 
 @dataclass(frozen=True)
@@ -77,6 +107,7 @@ class FunctionView:
     results: tuple[ResultView, ...]
     statements: tuple[Statement, ...]
     ieee: bool = False  # evaluated with IEEE semantics (IEEE_FUNCTIONS)
+    kernels: tuple[KernelView, ...] = ()  # the kernels its calls use
 
 
 @dataclass(frozen=True)
@@ -120,13 +151,15 @@ class FunctionSpec:
     # symbols defined in order before the results (a program): the system's constants and
     # hinge steps, then the function's own
     steps: tuple[Group, ...] = ()
+    blocks: tuple[Block, ...] = ()  # repeated parts of its results (codegen/blocks.py)
 
 
-def function_specs(system: SymbolicSystem, tangents: bool = False
+def function_specs(system: SymbolicSystem, tangents: bool = False, kernels: bool = False
                    ) -> tuple[FunctionSpec, ...]:
     """The model functions of the interface (depsim.runtime.interface.FUNCTIONS: names,
     arguments, results, summaries), each with the system's matrices for its results; then,
-    with `tangents`, those of interface.TANGENTS (tangent_spec)."""
+    with `tangents`, those of interface.TANGENTS (tangent_spec). `kernels`: with the
+    system's blocks (their repeated kinds written once, as kernels)."""
     s = system
     q, qd = column(s.q), column(s.qd)
     placed = tuple(g for pair in zip(s.tree_pose, s.tree_tangent) for g in pair)
@@ -148,10 +181,12 @@ def function_specs(system: SymbolicSystem, tangents: bool = False
         "parameter_checks": (s.limit_values, s.limit_bounds),
     }
     prelude = s.constants + s.hinge_steps
+    blocks = dict(s.blocks) if kernels else {}
     specs = tuple(FunctionSpec(f.name, f.args, f.summary,
                                tuple((r.name, m) for r, m in zip(f.results, matrices[f.name])),
                                flatten=len(f.results[0].shape) == 1,
-                               steps=prelude + steps.get(f.name, ()))
+                               steps=prelude + steps.get(f.name, ()),
+                               blocks=blocks.get(f.name, ()))
                   for f in interface.FUNCTIONS)
     if not tangents:
         return specs
@@ -207,33 +242,129 @@ IEEE_FUNCTIONS = ("outputs", interface.tangent_name("outputs"))
 def lower_function(system: SymbolicSystem, spec: FunctionSpec,
                    printer: PrinterFactory) -> FunctionView:
     """CSE the function's non-zero entries together and print them through `printer`; a
-    function with steps computes them first (`_program`)."""
+    function with steps computes them first (`_program`). The entries of its blocks whose
+    kind repeats are written by a kernel's call each (`_kernels`)."""
     assert tuple(a for a in ARGUMENT_ORDER if a in spec.args) == spec.args, spec.args
     entries = [matrix.todok() for _, matrix in spec.results]  # the non-zeros (sparse or not)
     places = [(r, i, j) for r, found in enumerate(entries)
               for (i, j), value in sorted(found.items()) if value != 0]
-    exprs = [entries[r][i, j] for r, i, j in places]
+    kernel_kinds, instances = kinds(spec.blocks, {
+        place: entries[place[0]].get(place[1:], sympy.Integer(0))
+        for block in spec.blocks for place in block.places}) if spec.blocks else ((), ())
+    covered = {place for instance in instances if instance.terms is None
+               for place in instance.places}
+    rest = {place: entries[place[0]][place[1:]] for place in places if place not in covered}
+    for instance in instances:  # a sum's blocks: their calls add their terms
+        for place, term in zip(instance.places or (), instance.terms or ()):
+            rest[place] = rest.get(place, sympy.Integer(0)) - term
+    places = [place for place in places if place in rest and rest[place] != 0]
+    exprs = [rest[place] for place in places]
+    # each call's arguments follow the entries, as one tuple each
+    arguments = [value for instance in instances for group in instance.args for value in group]
     names = sympy.numbered_symbols("x")
-    program, exprs = _program(spec.steps, exprs, names)
-    definitions, reduced = sympy.cse(exprs, symbols=names)
-    definitions, reduced = _split_sums(program + definitions, reduced, names)
+    program, reduced_all = _program(spec.steps, exprs + arguments, names)
+    definitions, reduced_all = sympy.cse(reduced_all, symbols=names)
+    definitions, reduced_all = _split_sums(program + definitions, reduced_all, names)
+    reduced, call_args = reduced_all[:len(exprs)], reduced_all[len(exprs):]
     inputs = slots(system, spec.args)
-    _check_inputs(spec.name, definitions, reduced, inputs)
+    _check_inputs(spec.name, definitions, reduced_all, inputs)
     print_ = printer(inputs, [name for name, _ in definitions]).doprint
     printed = {name: Assignment(name.name, print_(value)) for name, value in definitions}
-    entries: list[list[Entry]] = [[] for _ in spec.results]
+    kernel_views = tuple(_lower_kernel(f"{spec.name}_{kind.label}_{k}", kind, printer)
+                         for k, kind in enumerate(kernel_kinds))
+    calls = _calls(spec, kernel_views, instances, call_args, print_)
+    # the statements in the order of the results' places: entries and calls
+    items = [(place, value, None) for place, value in zip(places, reduced)] + [
+        (instance.places[0], sympy.Tuple(*values), call)
+        for instance, (values, call) in zip(instances, calls)]
+    # a sum's calls after every entry (they add to the entries)
+    items.sort(key=lambda item: (item[2] is not None and item[2].accumulate, item[0]))
+    order = _demand_order(definitions, [value for _, value, _ in items])
+    results_entries: list[list[Entry]] = [[] for _ in spec.results]
     statements: list[Statement] = []
-    order = _demand_order(definitions, reduced)
-    for (r, i, j), value, needed in zip(places, reduced, order):
+    for ((r, i, j), value, call), needed in zip(items, order):
         statements += [Statement(-1, printed[name]) for name in needed]
+        if call is not None:
+            statements.append(Statement(-2, call=call))
+            continue
         cols = spec.results[r][1].cols
         index = (i,) if spec.flatten else (i, j)
-        entries[r].append(Entry(index, i * cols + j, print_(value)))
-        statements.append(Statement(r, entry=entries[r][-1]))
-    results = tuple(ResultView(name, _shape(matrix, spec.flatten), tuple(found))
-                    for (name, matrix), found in zip(spec.results, entries))
+        results_entries[r].append(Entry(index, i * cols + j, print_(value)))
+        statements.append(Statement(r, entry=results_entries[r][-1]))
+    written = [sum(1 for place in covered if place[0] == r) for r in range(len(spec.results))]
+    results = tuple(ResultView(name, _shape(matrix, spec.flatten), tuple(found), count)
+                    for (name, matrix), found, count in zip(spec.results, results_entries,
+                                                            written))
     return FunctionView(spec.name, spec.args, spec.summary, tuple(printed.values()), results,
-                        tuple(statements), spec.name in IEEE_FUNCTIONS)
+                        tuple(statements), spec.name in IEEE_FUNCTIONS, kernel_views)
+
+
+def _lower_kernel(name: str, kind, printer: PrinterFactory) -> KernelView:
+    """A kind's kernel: its steps and outputs over its argument groups' arrays, as a
+    function's body (one CSE), every output an entry of `out`."""
+    inputs = {x: f"{group}[{k}]" for group, placeholders in kind.groups
+              for k, x in enumerate(placeholders)}
+    names = sympy.numbered_symbols("x")
+    program, exprs = _program(kind.steps, list(kind.outputs), names)
+    definitions, reduced = sympy.cse(exprs, symbols=names)
+    definitions, reduced = _split_sums(program + definitions, reduced, names)
+    _check_inputs(name, definitions, reduced, inputs)
+    print_ = printer(inputs, [symbol for symbol, _ in definitions]).doprint
+    printed = {symbol: Assignment(symbol.name, print_(value)) for symbol, value in definitions}
+    statements: list[Statement] = []
+    for k, (value, needed) in enumerate(zip(reduced, _demand_order(definitions, reduced))):
+        statements += [Statement(-1, printed[symbol]) for symbol in needed]
+        statements.append(Statement(0, entry=Entry((k,), k, print_(value))))
+    return KernelView(name, tuple((group, len(placeholders))
+                                  for group, placeholders in kind.groups),
+                      len(kind.outputs), tuple(statements))
+
+
+_SLOT = re.compile(r"^([A-Za-z_]\w*)\[(\d+)\]$")
+
+
+def _calls(spec: FunctionSpec, kernels: tuple[KernelView, ...], instances, values, print_
+           ) -> list[tuple[list[sympy.Expr], Call]]:
+    """Each instance's call: its arguments (reduced, in order) and the Call that passes them
+    (a group of consecutive slots of one array as a pointer into it)."""
+    calls = []
+    start = 0
+    for instance in instances:
+        kernel = kernels[instance.kind]
+        count = sum(size for _, size in kernel.groups)
+        mine = values[start:start + count]
+        start += count
+        args, pointers, offset = [], [], 0
+        for group, size in kernel.groups:
+            texts = tuple(print_(value) for value in mine[offset:offset + size])
+            offset += size
+            args.append((group, texts))
+            pointers.append(_pointer(texts))
+        outputs = tuple((r, i * spec.results[r][1].cols + j) for r, i, j in instance.places)
+        results = {r for r, _ in outputs}
+        flats = [flat for _, flat in outputs]
+        out, accumulate = None, instance.terms is not None
+        if not accumulate and len(results) == 1 \
+                and flats == list(range(flats[0], flats[0] + len(flats))):
+            out = _offset(spec.results[outputs[0][0]][0], flats[0])
+        calls.append((mine, Call(kernel.name, tuple(args), tuple(pointers), outputs, out,
+                                 accumulate)))
+    return calls
+
+
+def _pointer(texts: tuple[str, ...]) -> str | None:
+    """`q + 12` when the texts are q[12], q[13], ... in order; else None."""
+    found = [_SLOT.match(text) for text in texts]
+    if not all(found) or len({m.group(1) for m in found}) != 1:
+        return None
+    first = int(found[0].group(2))
+    if [int(m.group(2)) for m in found] != list(range(first, first + len(found))):
+        return None
+    return _offset(found[0].group(1), first)
+
+
+def _offset(array: str, start: int) -> str:
+    return array if start == 0 else f"{array} + {start}"
 
 
 def _demand_order(definitions, reduced) -> list[list[sympy.Symbol]]:
@@ -367,10 +498,11 @@ def _limit_tables(model: ir.Model) -> dict[str, tuple]:
 
 def lower_module(model: ir.Model, system: SymbolicSystem, printer: PrinterFactory,
                  depsim_version: str, ieee_printer: PrinterFactory | None = None,
-                 tangents: bool = False) -> ModuleView:
+                 tangents: bool = False, kernels: bool = False) -> ModuleView:
     """The whole module's view-model: header constants and every function (those of
     IEEE_FUNCTIONS printed by `ieee_printer` when the backend's own printer is not IEEE),
-    with `tangents` also the tangent functions (interface.TANGENTS)."""
+    with `tangents` also the tangent functions (interface.TANGENTS); with `kernels` the
+    system's repeated blocks as kernels (a backend that writes them: C)."""
     rows, cols = zip(*system.phi_q_pattern) if system.phi_q_pattern else ((), ())
     values = {
         "COORDINATES": system.coordinates, "PARAMETERS": tuple(p.name for p in model.params),
@@ -412,6 +544,6 @@ def lower_module(model: ir.Model, system: SymbolicSystem, printer: PrinterFactor
         t_end=model.simulation.t_end, tol=model.simulation.tol, dt_out=model.simulation.dt_out,
         functions=tuple(lower_function(system, spec, ieee_printer if ieee_printer is not None
                                        and spec.name in IEEE_FUNCTIONS else printer)
-                        for spec in function_specs(system, tangents)),
+                        for spec in function_specs(system, tangents, kernels)),
         tangents=tangents,
     )

@@ -312,13 +312,14 @@ class SpatialKinematics:
         return turned(dot(cross(u, w), n), dot(u, w))
 
     def _turn_vectors(self, index: int, near: sympy.Expr):
-        """s_A and the axis a (A's frame), s_B (B's frame, named) of hinge_turn_parts, and
+        """s_A and the axis a (A's frame), s_B (B's frame; both named) of hinge_turn_parts, and
         (S0, C0) -> (S, C), the turn by -delta."""
         hinge, frame = self.model.hinges[index], self.hinge_frame(index)
         t_a, t_b = self._measuring_turns(index)
         s_a = tuple(math.cos(t_a) * e + math.sin(t_a) * f for e, f in zip(frame.e, frame.f))
         s_b = times(frame.relative.T, tuple(math.cos(t_b) * e + math.sin(t_b) * f
                                             for e, f in zip(frame.e, frame.f)))
+        s_a = self._named_vector(f"{hinge.name}.s_a", s_a)
         s_b = self._named_vector(f"{hinge.name}.s_b", s_b)
         delta = near - (t_a - t_b)
         c, s = self.named(f"{hinge.name}.cos_delta", sympy.cos(delta)), \
@@ -374,91 +375,6 @@ class SpatialKinematics:
         hinge = self.model.hinges[index]
         return hinge.sign * self.hinge_raw_turn(index, self.hinge_near(index)) \
             + self.const(hinge.offset)
-
-    def hinge_derivatives(self, index: int
-                          ) -> tuple[dict[int, sympy.Expr], sympy.Expr, sympy.Expr, sympy.Expr]:
-        """(d theta/dq as coordinate index -> entry, theta, theta', -(d theta/dq qd)_q qd)
-        of a hinge, from theta = sign (near + atan2(S, C)) + offset written out: with
-        D = S^2 + C^2 and dots the rates along qd, theta' = sign (C S' - S C')/D and
-
-            -(theta'_q qd) = -sign ((C S'' - S C'') D - 2 (C S' - S C') (S S' + C C')) / D^2,
-
-        S'' = (S'_q qd) (S is bilinear in q, so these stay small where sympy's derivatives of
-        atan2 would not). S and C are the triple product [u, w, n] and u . w of vectors
-        linear in q (u = R_A s_A, w = R_B s_B, n = R_A a; hinge_turn_parts), so their
-        derivatives come from the product rule on those vectors (u'' = 0 along qd), not from
-        differentiating the expressions written out: d u / d R_A[i, j] = s_A[j] e_i, and
-
-            [u, w, n]'  = [u', w, n] + [u, w', n] + [u, w, n'],
-            [u, w, n]'' = 2 ([u', w', n] + [u', w, n'] + [u, w', n']).
-
-        The vectors, S, C, D and their rates are named steps (`hinge_steps`, in the order
-        they depend on each other), so every expression here is a few terms of those names:
-        written out, each gradient entry repeated S and C whole and the generated hinge
-        functions' CSE had to find them again."""
-        hinge = self.model.hinges[index]
-        s_a, s_b, axis, turned = self._turn_vectors(index, self.hinge_near(index))
-        ra, rb = self.rotation(hinge.a.member), self.rotation(hinge.b.member)
-        rate_a, rate_b = self._rotation_rate(hinge.a.member), self._rotation_rate(hinge.b.member)
-        steps: list[list[tuple[sympy.Symbol, sympy.Expr]]] = []
-
-        def level(**parts) -> dict:
-            """Name each part (a vector or a scalar) as steps of one new group."""
-            group: list[tuple[sympy.Symbol, sympy.Expr]] = []
-
-            def name(label: str, value: sympy.Expr) -> sympy.Expr:
-                if value.is_Atom:  # a number or a name already: nothing to compute
-                    return value
-                symbol = sympy.Symbol(f"@{hinge.name}.{label}")
-                group.append((symbol, value))
-                return symbol
-
-            named = {key: tuple(name(f"{key}_{axis}", component)
-                                for axis, component in zip("xyz", value))
-                     if isinstance(value, tuple) else name(key, value)
-                     for key, value in parts.items()}
-            if group:
-                steps.append(group)
-            return named
-
-        v = level(u=times(ra, s_a), w=times(rb, s_b), n=times(ra, axis),
-                  du=times(rate_a, s_a), dw=times(rate_b, s_b), dn=times(rate_a, axis))
-        u, w, n, du, dw, dn = (v[key] for key in ("u", "w", "n", "du", "dw", "dn"))
-        v.update(level(wn=cross(w, n), nu=cross(n, u), uw=cross(u, w), C0=dot(u, w),
-                       rate_C0=dot(du, w) + dot(u, dw), second_C0=2 * dot(du, dw),
-                       second_S0=2 * (dot(cross(du, dw), n) + dot(cross(du, w), dn)
-                                      + dot(cross(u, dw), dn))))
-        wn, nu, uw = v["wn"], v["nu"], v["uw"]
-        v.update(level(S0=dot(uw, n), rate_S0=dot(du, wn) + dot(dw, nu) + dot(dn, uw)))
-        sine, cosine = turned(v["S0"], v["C0"])
-        rate_s, rate_c = turned(v["rate_S0"], v["rate_C0"])
-        second_s, second_c = turned(v["second_S0"], v["second_C0"])
-        v.update(level(S=sine, C=cosine, rate_S=rate_s, rate_C=rate_c, second_S=second_s,
-                       second_C=second_c))
-        sine, cosine, rate_s, rate_c = v["S"], v["C"], v["rate_S"], v["rate_C"]
-        v.update(level(D=sine**2 + cosine**2, rate_numerator=cosine * rate_s - sine * rate_c))
-        size, numerator = v["D"], v["rate_numerator"]
-        # d/dR_A[i, j] moves u and n (by s_A[j] e_i and a[j] e_i), d/dR_B[i, j] moves w
-        partials = ((hinge.a.member, lambda i, j: (wn[i] * s_a[j] + uw[i] * axis[j],
-                                                   w[i] * s_a[j])),
-                    (hinge.b.member, lambda i, j: (nu[i] * s_b[j], u[i] * s_b[j])))
-        gradient = {}
-        for member, partial in partials:
-            if member.kind is not ir.MemberKind.BODY:
-                continue
-            start = 12 * member.index + 3  # its R11 (body_symbols)
-            for i in range(3):
-                for j in range(3):
-                    grad_s, grad_c = turned(*partial(i, j))
-                    gradient[start + 3 * i + j] = \
-                        hinge.sign * (cosine * grad_s - sine * grad_c) / size
-        gradient = {j: g for j, g in sorted(gradient.items()) if g != 0}
-        gamma = -hinge.sign * ((cosine * v["second_S"] - sine * v["second_C"]) * size
-                               - 2 * numerator * (sine * rate_s + cosine * rate_c)) / size**2
-        theta = hinge.sign * (self.hinge_near(index) + sympy.atan2(sine, cosine)) \
-            + self.const(hinge.offset)
-        self.hinge_steps[index] = tuple(tuple(group) for group in steps)
-        return gradient, theta, hinge.sign * numerator / size, gamma
 
     def axis_frame(self, name: str, direction: tuple[ir.Expr, ...]
                    ) -> tuple[Vector3, Vector3, Vector3]:

@@ -13,18 +13,22 @@ every joint at zero each member has its `orientation`."""
 
 from __future__ import annotations
 
+import functools
+
 import sympy
 
 from depsim.dsl import ir
 
 from .assembly import Assembly, _joint_value, _Placing, _sides
+from .blocks import member_roles, named_roles
 from .spatial import SpatialKinematics, Vector3, rotation_about, times, turn
 
 
 def assemble_spatial(model: ir.Model, kin: SpatialKinematics) -> Assembly:
     """The tree placement of a spatial model's members and its initial values."""
     state = _Placing(dict(zip(kin.symbols.q, kin.symbols.qd)))
-    place = {ir.JointKind.HINGE: _place_hinge, ir.JointKind.WELD: _place_weld,
+    place = {ir.JointKind.HINGE: functools.partial(_place_hinge, placed={}),
+             ir.JointKind.WELD: _place_weld,
              ir.JointKind.BALL: _place_ball, ir.JointKind.FREE: _place_free,
              ir.JointKind.SLIDER: _place_slider, ir.JointKind.CYLINDRICAL: _place_cylindrical,
              ir.JointKind.UNIVERSAL: _place_universal}
@@ -100,13 +104,57 @@ def _place_turned(kin: SpatialKinematics, joint, placement: ir.Placement,
     _place_member(kin, child, point, rotation, state)
 
 
-def _place_hinge(kin: SpatialKinematics, placement: ir.Placement, state: _Placing) -> None:
+def _place_hinge(kin: SpatialKinematics, placement: ir.Placement, state: _Placing,
+                 placed: dict) -> None:
+    """Place a hinge's child turned by its angle about the axis; the steps of a kind of
+    placement (`_placing_kind`) written out once and renamed for the others (`placed`:
+    kind -> the first one's steps over placeholders)."""
     hinge = kin.model.hinges[placement.joint]
     theta = _joint_value(kin, hinge.name, hinge.initial_angle, hinge.initial_rate,
                          hinge.held, state)
     frame = kin.hinge_frame(placement.joint)
+    key, roles = _placing_kind(kin, hinge, placement, frame, theta, state)
+    if key in placed:
+        back = {x: symbol for symbol, x in roles}
+        pose, tangent = (tuple((s.xreplace(back), v.xreplace(back)) for s, v in group)
+                         for group in placed[key])
+        state.local.update(pose)
+        state.pose.append(pose)
+        state.tangent.append(tangent)
+        return
     angle = hinge.sign * (theta - kin.const(hinge.offset))
     _place_turned(kin, hinge, placement, rotation_about(frame.axis, angle), state)
+    names = dict(roles)
+    template = tuple(tuple((s.xreplace(names), v.xreplace(names)) for s, v in group)
+                     for group in (state.pose[-1], state.tangent[-1]))
+    own = {x for group in template for s, v in group for x in v.free_symbols | {s}}
+    if all(x.name.startswith("#") or x in set(kin.p) for x in own):
+        placed[key] = template
+
+
+def _placing_kind(kin: SpatialKinematics, hinge, placement: ir.Placement, frame, theta,
+                  state: _Placing) -> tuple[tuple, list]:
+    """What a hinge's placement is a function of but its symbols (its members' kinds and
+    sides, sign, offset, attachment points, its axis's and R0's named constants as
+    placeholders), and the roles of its symbols: the parent's coordinates and rates as
+    side a, the child's as b, the angle and its rate, the named constants (blocks.py)."""
+    parent, child, child_is_b = _sides(hinge, placement)
+    roles = [(theta, sympy.Symbol("#v")), (state.rates[theta], sympy.Symbol("#dv"))]
+    for side, member in (("a", parent.member), ("b", child.member)):
+        if member.kind is not ir.MemberKind.GROUND:
+            coordinates = kin.member_symbols(member)
+            roles += member_roles(side, coordinates, [state.rates[s] for s in coordinates])
+    relative = _relative(kin, hinge)
+    constants = list(frame.axis) + list(relative)
+    prefixes = (f"{hinge.name}.", f"{kin.member_name(hinge.a.member)}."
+                f"{kin.member_name(hinge.b.member)}.")
+    roles += named_roles({x for x in constants if isinstance(x, sympy.Symbol)}, prefixes)
+    names = dict(roles)
+    key = (parent.member.kind, child.member.kind, child_is_b, hinge.sign,
+           kin.const(hinge.offset), kin.local_point(parent.member, parent.point),
+           kin.local_point(child.member, child.point),
+           tuple(sympy.sympify(x).xreplace(names) for x in constants))
+    return key, roles
 
 
 def _place_weld(kin: SpatialKinematics, placement: ir.Placement, state: _Placing) -> None:
