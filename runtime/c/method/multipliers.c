@@ -340,7 +340,11 @@ int dep_iterate_multipliers(dep_multipliers *mp, int stage, double *lam, int nc,
                      DEP_MAX_ITERATIONS);
             return fail(mp, stage, current, nc, tol, 1, 0, reason, failure);
         }
-        if (!(trial_error <= tol) && trial_error > SLOW_CONTRACTION * error) {
+        /* the factor of this Jacobian itself contracting by less than SLOW_CONTRACTION: the
+           residual is near the round-off of the rows' terms (a chain of hundreds of spatial
+           bodies), where further updates and secants only wander: looked at below */
+        int slow_exact = mp->schur_exact && trial_error > SLOW_CONTRACTION * error;
+        if (!(trial_error <= tol) && trial_error > SLOW_CONTRACTION * error && !slow_exact) {
             learn_secant(mp, current, trial, nc, C, allowed, report); /* a slow contraction */
         }
         memcpy(lam, mp->trial_lam, (size_t)nc * sizeof *lam);
@@ -350,6 +354,11 @@ int dep_iterate_multipliers(dep_multipliers *mp, int stage, double *lam, int nc,
         error = trial_error;
         report->iterations++;
         report_error(report, error);
+        if (slow_exact && !(error <= tol)
+            && at_roundoff(mp, measure, context, lam, nc, tol, current)) {
+            report->roundoff = 1;
+            break;
+        }
     }
     if (stage == DEP_POSITION && mp->n_nulls > 0 && !(inconsistency(mp, current, nc, tol) <= 1.0)) {
         snprintf(reason, sizeof reason, "the rows' residual along a combination no multiplier "
