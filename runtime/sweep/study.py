@@ -357,10 +357,11 @@ def _execute(ref, config, matrix, todo, workers, scheduler, batch_size):
         # batches of up to 25 runs: a batch is the unit that an interruption can lose (a third
         # of a second of INTELSAT V's runs), and each costs the pool about a millisecond of
         # the parent's time, which shares the cores with the workers (2,000 INTELSAT V runs on
-        # 2 cores: 14.0 s in batches of 5, 13.6 s in batches of 25)
-        size = batch_size or backends.batch_size_for(len(todo), workers, 8, 25)
-        yield from backends.run_pool(ref, config, matrix, backends.split_batches(todo, size),
-                                     workers)
+        # 2 cores: 14.0 s in batches of 5, 13.6 s in batches of 25); shrinking to single runs
+        # at the end, so that the workers finish together (guided_batches)
+        batches = backends.split_batches(todo, batch_size) if batch_size \
+            else backends.guided_batches(todo, workers, 25)
+        yield from backends.run_pool(ref, config, matrix, batches, workers)
     elif scheduler in ("inline", "serial", "synchronous"):
         size = batch_size or backends.batch_size_for(len(todo), 1, 20, 20)
         yield from backends.run_inline(ref, config, matrix, backends.split_batches(todo, size))
