@@ -140,7 +140,7 @@ def _write_column(f, name: str, column: Column, coordinates: str | None) -> None
     elif values.dtype.kind == "f":
         fill = values.dtype.type(np.nan)
     dtype = h5py.string_dtype() if values.dtype == object else values.dtype
-    variable = f.create_variable(name, dimensions=column.dims, dtype=dtype, fillvalue=fill)
+    variable = f.create_variable(name, dimensions=column.dims, dtype=dtype, data=values,
+                                 fillvalue=fill)
     for key, value in attrs.items():
         variable.attrs[key] = value
-    variable[...] = values
