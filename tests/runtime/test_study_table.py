@@ -1,7 +1,7 @@
 """A study's plain arrays (`StudyTable`) and its NetCDF file written with h5netcdf alone: read
 back with xarray, the file is the one xarray writes for the same Dataset (every variable,
-coordinate, attribute, dtype, dimension and encoding); the summary of the arrays is the
-summary of the Dataset."""
+coordinate, attribute, dtype, dimension and encoding), and HDF5 object for object; the
+summary of the arrays is the summary of the Dataset."""
 
 from __future__ import annotations
 
@@ -58,20 +58,53 @@ def encoding(variable) -> dict:
     return {k: repr(v) for k, v in variable.encoding.items() if k != "source"}
 
 
+HIDDEN = {"DIMENSION_LIST", "REFERENCE_LIST", "_Netcdf4Coordinates", "_Netcdf4Dimid", "CLASS",
+          "NAME"}  # netCDF-4's bookkeeping: read by name, in any order
+
+
+def h5_attributes(item) -> tuple[list, dict]:
+    """An HDF5 object's attributes: (name, HDF5 type class, size or "vlen", character set,
+    shape, value), the visible ones in their order, netCDF's bookkeeping by name;
+    references as the names they point to."""
+    visible, hidden = [], {}
+    for key in item.attrs:
+        attribute = h5py.h5a.open(item.id, key.encode())
+        kind = attribute.get_type()
+        text = isinstance(kind, h5py.h5t.TypeStringID)
+        value = item.attrs[key]
+        if key == "DIMENSION_LIST":
+            value = [[item.file[ref].name for ref in row] for row in value]
+        elif key == "REFERENCE_LIST":
+            value = sorted(item.file[entry[0]].name for entry in value)
+        entry = (key, type(kind).__name__,
+                 "vlen" if text and kind.is_variable_str() else kind.get_size(),
+                 kind.get_cset() if text else None, attribute.get_space().shape, repr(value))
+        if key in HIDDEN:
+            hidden[key] = entry
+        else:
+            visible.append(entry)
+    return visible, hidden
+
+
 def h5_layout(path) -> dict:
-    """Every HDF5 dataset's dtype, shape, fill value and attributes (references by count),
-    and the file's attributes."""
+    """Everything of the file an HDF5 reader sees: the datasets in creation order, each with
+    its dtype, string type, shape, maximum shape, chunks, fill value, layout, attribute
+    order tracking, fill and allocation times, data and attributes; the file's attributes
+    (`_NCProperties`, which names the writer, apart)."""
     out = {}
     with h5py.File(path, "r") as f:
-        out["/"] = {k: repr(v) for k, v in f.attrs.items()}
-
-        def visit(name, item):
-            if isinstance(item, h5py.Dataset):
-                attrs = {k: (len(v) if k in ("DIMENSION_LIST", "REFERENCE_LIST") else repr(v))
-                         for k, v in item.attrs.items()}
-                out[name] = (str(item.dtype), item.shape, repr(item.fillvalue),
-                             str(h5py.check_string_dtype(item.dtype)), attrs)
-        f.visititems(visit)
+        visible, hidden = h5_attributes(f)
+        out["/"] = ([a for a in visible if a[0] != "_NCProperties"], hidden)
+        assert f.attrs["_NCProperties"].startswith(b"version=2,")
+        for name in f:
+            item = f[name]
+            plist = item.id.get_create_plist()
+            out[name] = (str(item.dtype), repr(h5py.check_string_dtype(item.dtype)),
+                         item.shape, item.maxshape, item.chunks, repr(item.fillvalue),
+                         plist.get_layout(), plist.get_attr_creation_order(),
+                         plist.get_fill_time(), plist.get_alloc_time(),
+                         repr(item[...].tolist()), h5_attributes(item))
+        out["order"] = list(f)
     return out
 
 
