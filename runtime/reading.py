@@ -24,7 +24,7 @@ def text(value) -> str:
 def doubles(pointer, rows: int, *widths: int) -> np.ndarray:
     """A copy of the C array of doubles at `pointer`, of shape (rows, *widths)."""
     shape = (rows, *widths)
-    size = int(np.prod(shape))
+    size = math.prod(shape)  # (np.prod: a ufunc reduction, 5 us a call)
     if size == 0:
         return np.zeros(shape)
     return np.frombuffer(ffi().buffer(pointer, 8 * size), dtype=float).reshape(shape).copy()
