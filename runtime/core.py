@@ -233,15 +233,24 @@ def ffi():
     key = hashlib.sha256(f"{cffi.__version__}\n{text}".encode()).hexdigest()[:20]
     name = f"_depsim_ffi_{key}"
     path = cache_root() / "ffi" / f"{name}.py"
-    if not path.is_file():
-        _write_ffi_module(text, name, path)
+    try:
+        if not path.is_file():
+            _write_ffi_module(text, name, path)
+        try:
+            return _import_ffi_module(name, path)
+        except Exception:  # a damaged file in the cache: written again
+            _write_ffi_module(text, name, path)
+            return _import_ffi_module(name, path)
+    except OSError:  # a cache that cannot be written: the headers parsed here
+        view = cffi.FFI()
+        view.cdef(text)
+        return view
+
+
+def _import_ffi_module(name: str, path: Path):
     spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
-    try:
-        spec.loader.exec_module(module)
-    except Exception:  # a damaged file in the cache: written again
-        _write_ffi_module(text, name, path)
-        spec.loader.exec_module(module)
+    spec.loader.exec_module(module)
     return module.ffi
 
 
