@@ -17,7 +17,8 @@ the machine's changing speed (2 shared cores) falls on all of them alike:
   solver), of its metrics and of the rest (the run's end read, the record: "recording"); then
   what the parent does with them: their checkpoint lines (JSON, written and synced a batch at
   a time), and an N-run dataset, its NetCDF file and its summary (the probe's runs over
-  again);
+  again), the first time (with their imports: fixed cost) and the second; and a study
+  worker's start-up, a process of its own (interpreter, imports, the model's library);
 * with --against TREE, the same three for the depsim installed in another git worktree (its
   .venv), and at the end whether the two studies hold the same numbers;
 * the hand-written INTELSAT V solver (tests/references/intelsat_hand.c, 0-80 s, no rows),
@@ -91,7 +92,13 @@ def probe(model: Path, runs: int, count: int) -> dict:
     from depsim.runtime.sweep import Study, make_design, summarize
     from depsim.runtime.sweep import study as studies
     from depsim.runtime.sweep import worker
-    from depsim.runtime.sweep.storage import Checkpoint, build_dataset, write_dataset
+    from depsim.runtime.sweep.storage import Checkpoint
+    try:  # the study as plain arrays, written with h5netcdf alone
+        from depsim.runtime.sweep.storage import build_table as build
+        from depsim.runtime.sweep.table import write_table as write
+    except ImportError:  # a tree before them: the xarray Dataset and its writer
+        from depsim.runtime.sweep.storage import build_dataset as build
+        from depsim.runtime.sweep.storage import write_dataset as write
 
     sim = depsim.load(model).compile("c")
     design = make_design(tuple(sim.parameter_names), sim.defaults, samples=SAMPLES, runs=runs,
@@ -139,22 +146,36 @@ def probe(model: Path, runs: int, count: int) -> dict:
         lines = (clock() - start) / len(records)
         checkpoint.close()
         every = {i: dict(records[i % len(records)], run=i) for i in range(runs)}
+        first = {}
         for _ in range(2):  # the first time pays the imports (the fixed cost): timed the second
             start = time.perf_counter()
-            ds = build_dataset(every, design, static_metrics=plan.static, user_metrics=[],
-                               output_names=plan.outputs, time_grid=None, attrs=plan.attrs,
-                               describe=plan.describe, parameter_units=plan.parameter_units)
+            ds = build(every, design, static_metrics=plan.static, user_metrics=[],
+                       output_names=plan.outputs, time_grid=None, attrs=plan.attrs,
+                       describe=plan.describe, parameter_units=plan.parameter_units)
             built = time.perf_counter()
-            write_dataset(ds, Path(folder) / "study.nc")
+            write(ds, Path(folder) / "study.nc")
             written = time.perf_counter()
             summarize(ds)
             summarized = time.perf_counter()
+            first = first or {"dataset_first": built - start, "netcdf_first": written - built,
+                              "summary_first": summarized - written}
     return {"solver_mean": statistics.fmean(calls), "solver_median": statistics.median(calls),
             "recording": statistics.median(rest), "metrics": statistics.median(metrics),
             "checkpoint": lines, "dataset": (built - start) / runs,
             "netcdf": (written - built) / runs, "summary": (summarized - written) / runs,
-            "probed": len(calls),
+            "probed": len(calls), **first, "worker_start": worker_start(sim.module.__file__),
             "failed": sum(1 for r in records if r["failed"])}
+
+
+def worker_start(library: str, rounds: int = 5) -> float:
+    """A study worker's start-up (s, median wall time of `rounds` processes): the interpreter,
+    the imports of `depsim.runtime.sweep.worker` and the model's library loaded as a pool
+    worker's initializer loads it, in a process of its own (this python: this tree's)."""
+    code = ("from depsim.runtime.sweep import worker; "
+            f"worker.load_module(worker.ModuleRef.from_path({library!r}))")
+    env = {**os.environ, **SINGLE_THREAD}
+    return statistics.median(timed([sys.executable, "-c", code], env=env)[0]
+                             for _ in range(rounds))
 
 
 # ---- the hand-written solver: the machine's speed --------------------------------------------
@@ -267,6 +288,11 @@ def report(args, seen: dict[str, list], label: str) -> dict:
           "median (its wall_time: both cores busy)")
     print(f"  fixed cost: process and setup       {setup:8.2f} s   (the 2-run command less a "
           "run: start-up, model, workers, summary, file)")
+    if "worker_start" in part:
+        print(f"    a worker's start (process, imports, model) {part['worker_start']:6.3f} s")
+        print(f"    the first dataset, NetCDF, summary {part['dataset_first']:6.3f}, "
+              f"{part['netcdf_first']:.3f}, {part['summary_first']:.3f} s  (parent: their "
+              "imports, probe's runs)")
     print("  cost a run beyond the solver (CPU time)")
     print(f"    recording (run's end, record)     {ms * part['recording']:8.3f} ms  (worker)")
     print(f"    metrics                           {ms * part['metrics']:8.3f} ms  (worker)")

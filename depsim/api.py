@@ -448,9 +448,10 @@ def local_study(sim: Simulator, samples, *, set=None, t_end=None, tol=None):
 
 def sweep(sim: Simulator, *, grid=None, samples=None, runs=None, seed=None, metrics=None,
           t_end=None, dt_out=None, tol=None, time_grid=None, workers=None, scheduler=None,
-          out=None, resume=False, progress=None, target="c"):
+          out=None, resume=False, progress=None, target="c", as_xarray=True):
     """Run a parameter study of a compiled model; returns an xarray Dataset (also written to
-    `out` as NetCDF). `grid`: ["NAME=START:STOP:N", ...]; `samples`: ["NAME=normal(MU,SIGMA)",
+    `out` as NetCDF; as_xarray=False: the same study as plain numpy arrays, a StudyTable with
+    `.to_xarray()`, without importing xarray). `grid`: ["NAME=START:STOP:N", ...]; `samples`: ["NAME=normal(MU,SIGMA)",
     "NAME=uniform(A,B)", ...] with `runs` and `seed`. Values may carry units ("1.5N*m").
     `scheduler`: None for a local process pool, or a Dask scheduler address / Client.
     `target`: the code the runs use, "c" (default, about 30 times faster) or "numpy"; a
@@ -482,4 +483,5 @@ def sweep(sim: Simulator, *, grid=None, samples=None, runs=None, seed=None, metr
                          metrics=metrics, t_end=t_end, dt_out=dt_out, tol=tol,
                          time_grid=time_grid, workers=workers, scheduler=scheduler, out=out,
                          resume=resume, progress=progress, quantity=quantity,
-                         defaults=sim.defaults, check=_range_check(sim.model.ir, names))
+                         defaults=sim.defaults, check=_range_check(sim.model.ir, names),
+                         as_xarray=as_xarray)

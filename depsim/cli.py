@@ -583,7 +583,7 @@ def _study(sim, args, out: str):
                             seed=args.seed, t_end=args.t_end, dt_out=args.dt_out, tol=args.tol,
                             time_grid=args.time_grid, workers=args.workers,
                             scheduler=args.scheduler, out=out, resume=args.resume,
-                            target=args.target)
+                            target=args.target, as_xarray=False)
     except ValueError as exc:  # a SweepSpecError is reported as it is; another: a setting
         if _report_as_is(exc):
             raise

@@ -9,26 +9,33 @@ Pieces: `make_design` (spec strings -> run matrix), `Study` + `run_study` (execu
 process pool, in-process, or Dask; checkpoint and resume; NetCDF), `summarize`, `plot_study`,
 `probability` (k of n runs with its Clopper-Pearson interval).
 Works on generated module files only: no sympy, no depsim.dsl / depsim.codegen.
+The names below are imported on first use, so a study's worker process, which imports
+`depsim.runtime.sweep.worker`, loads that module and what it needs alone (not the pool, the
+storage, the summary or the plot).
 """
 
-from .backends import StudyError, default_workers
-from .local import LocalStudy, local_study
-from .metrics import Metric
-from .plot import plot_study, study_figure
-from .probability import Probability, exceedance, not_deployed, probability
-from .progress import StudyProgress
-from .spec import Design, Distribution, GridAxis, SweepSpecError, make_design, parse_grid, \
-    parse_sample
-from .storage import ENGINE, CheckpointError, open_study, partial_path
-from .study import Study, run_study, sweep
-from .summary import drivers, metric_table, summarize
-from .worker import ModuleRef, load_module
+import importlib
 
-__all__ = [
-    "sweep", "Study", "run_study", "make_design", "Design", "GridAxis", "Distribution",
-    "parse_grid", "parse_sample", "SweepSpecError", "StudyError", "CheckpointError",
-    "StudyProgress", "Metric", "summarize", "metric_table", "drivers", "plot_study",
-    "study_figure", "Probability", "probability", "not_deployed", "exceedance",
-    "open_study", "partial_path", "load_module", "ModuleRef", "ENGINE", "default_workers",
-    "LocalStudy", "local_study",
-]
+_EXPORTS = {
+    "sweep": "study", "Study": "study", "run_study": "study", "make_design": "spec",
+    "Design": "spec", "GridAxis": "spec", "Distribution": "spec", "parse_grid": "spec",
+    "parse_sample": "spec", "SweepSpecError": "spec", "StudyError": "backends",
+    "CheckpointError": "storage", "StudyProgress": "progress", "Metric": "metrics",
+    "summarize": "summary", "metric_table": "summary", "drivers": "summary",
+    "plot_study": "plot", "study_figure": "plot", "Probability": "probability",
+    "probability": "probability", "not_deployed": "probability", "exceedance": "probability",
+    "open_study": "storage", "partial_path": "storage", "load_module": "worker",
+    "ModuleRef": "worker", "ENGINE": "storage", "default_workers": "backends",
+    "LocalStudy": "local", "local_study": "local", "StudyTable": "table",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str):
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'depsim.runtime.sweep' has no attribute '{name}'")
+    value = getattr(importlib.import_module(f"{__name__}.{module}"), name)
+    globals()[name] = value
+    return value

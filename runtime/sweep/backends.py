@@ -29,7 +29,8 @@ import numpy as np
 
 from .worker import ModuleRef, RunConfig, init_pool_worker, pool_run_batch, run_batch
 
-__all__ = ["StudyError", "default_workers", "split_batches", "run_inline", "run_pool",
+__all__ = ["StudyError", "default_workers", "split_batches", "guided_batches", "run_inline",
+           "run_pool",
            "run_dask", "DIED"]
 
 CONNECT_TIMEOUT = "20s"
@@ -51,6 +52,20 @@ def default_workers() -> int:
 def split_batches(indices: Sequence[int], size: int) -> list[list[int]]:
     indices = list(indices)
     return [indices[i:i + size] for i in range(0, len(indices), size)]
+
+
+def guided_batches(indices: Sequence[int], slots: int, cap: int) -> list[list[int]]:
+    """Batches that shrink as the runs left do (guided scheduling): each holds the runs left
+    shared by twice the slots (the pool keeps two batches a slot in flight), at most `cap`
+    and at least one run. The first batches are `cap` long; the last are single runs, so
+    the workers finish within a run of each other instead of one waiting out another's
+    last batch of `cap` runs."""
+    indices, out, first = list(indices), [], 0
+    while first < len(indices):
+        size = max(1, min(cap, math.ceil((len(indices) - first) / (2 * max(1, slots)))))
+        out.append(indices[first:first + size])
+        first += size
+    return out
 
 
 def batch_size_for(todo: int, slots: int, per_slot: int, cap: int) -> int:

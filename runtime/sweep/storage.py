@@ -1,5 +1,5 @@
 """Study storage: the incremental checkpoint (`<out>.partial`, JSON lines) and the final
-xarray Dataset / NetCDF file (engine h5netcdf: NetCDF-4/HDF5).
+study (`table.StudyTable`, or an xarray Dataset) and its NetCDF file (h5netcdf: NetCDF-4/HDF5).
 
 The checkpoint's first line identifies the study (a fingerprint of the module file, the run
 matrix, the settings and the metric names); each later line is one finished run. Lines are
@@ -20,9 +20,10 @@ from pathlib import Path
 import numpy as np
 
 from ..output import OutputError, atomic_path, check_output, writes_in_place
+from .table import Column, StudyTable, write_table
 
 __all__ = ["ENGINE", "Checkpoint", "CheckpointError", "fingerprint", "partial_path", "stored_seed",
-           "build_dataset", "write_dataset", "open_study", "metric_order", "check_store"]
+           "build_table", "build_dataset", "write_dataset", "open_study", "metric_order", "check_store"]
 
 ENGINE = "h5netcdf"
 FORMAT_VERSION = 1
@@ -190,16 +191,14 @@ def _natural(name: str) -> list:
     return [int(part) if part.isdigit() else part for part in re.split(r"(\d+)", name)]
 
 
-def build_dataset(records: Mapping[int, dict], design, *, static_metrics: Sequence[str],
-                  user_metrics: Sequence[str], output_names: Sequence[str],
-                  time_grid: np.ndarray | None, attrs: Mapping[str, object],
-                  describe: Callable[[str], dict] | None = None,
-                  parameter_units: Sequence[str] | None = None):
-    """The study as an xarray Dataset (dims `run`, and `time` with a time grid).
+def build_table(records: Mapping[int, dict], design, *, static_metrics: Sequence[str],
+                user_metrics: Sequence[str], output_names: Sequence[str],
+                time_grid: np.ndarray | None, attrs: Mapping[str, object],
+                describe: Callable[[str], dict] | None = None,
+                parameter_units: Sequence[str] | None = None) -> StudyTable:
+    """The study as plain arrays (dims `run`, `parameter`, and `time` with a time grid).
     describe(name): a metric's attributes (`units`, `long_name`); parameter_units: the SI
     unit of each parameter, in `design.parameter_names` order."""
-    import xarray as xr
-
     runs = design.runs
     ordered = [records[i] for i in range(runs)]
     names = metric_order(ordered, static_metrics, user_metrics)
@@ -208,46 +207,63 @@ def build_dataset(records: Mapping[int, dict], design, *, static_metrics: Sequen
     clash = [p for p in design.varied if p in reserved]
     if clash:
         raise ValueError(f"parameter name(s) {clash} clash with study variable names")
-    data = {}
-    for name in names:
-        column = np.full(runs, math.nan)
-        for i, record in enumerate(ordered):
-            value = record.get("values", {}).get(name)
-            if value is not None:
-                column[i] = value
-        data[name] = ("run", column, describe(name) if describe else {})
-    data["failed"] = ("run", np.array([bool(r["failed"]) for r in ordered]),
-                      {"description": "the simulation raised (its metrics are NaN)"})
-    data["error"] = ("run", np.array([str(r.get("error") or "") for r in ordered], dtype=str),
-                     {"description": "error text of a failed run or metric; empty when none"})
-    data["wall_time"] = ("run", np.array([float(r.get("wall", math.nan)) for r in ordered]),
-                         {"units": "s", "description": "wall time inside simulate"})
-    data["parameter_values"] = (("run", "parameter"), np.array(design.matrix, dtype=float),
-                                {"description": "the full parameter vector of each run (SI)"})
-    coords = {"run": np.arange(runs), "parameter": np.array(design.parameter_names, dtype=str)}
+    data = {name: Column(("run",), column, describe(name) if describe else {})
+            for name, column in _metric_columns(ordered, names).items()}
+    data["failed"] = Column(("run",), np.array([bool(r["failed"]) for r in ordered]),
+                            {"description": "the simulation raised (its metrics are NaN)"})
+    data["error"] = Column(("run",), np.array([str(r.get("error") or "") for r in ordered],
+                                              dtype=str),
+                           {"description": "error text of a failed run or metric; empty when "
+                                           "none"})
+    data["wall_time"] = Column(("run",),
+                               np.array([float(r.get("wall", math.nan)) for r in ordered]),
+                               {"units": "s", "description": "wall time inside simulate"})
+    data["parameter_values"] = Column(
+        ("run", "parameter"), np.array(design.matrix, dtype=float),
+        {"description": "the full parameter vector of each run (SI)"})
+    coords = {"run": Column(("run",), np.arange(runs)),
+              "parameter": Column(("parameter",), np.array(design.parameter_names, dtype=str))}
     units = dict(zip(design.parameter_names, parameter_units or ()))
     if parameter_units is not None:
-        coords["parameter_unit"] = ("parameter", np.array(parameter_units, dtype=str),
-                                    {"description": "SI unit of each parameter"})
+        coords["parameter_unit"] = Column(("parameter",), np.array(parameter_units, dtype=str),
+                                          {"description": "SI unit of each parameter"})
     for name in design.varied:
-        coords[name] = ("run", design.values(name).copy(),
-                        {"units": units[name]} if units.get(name) else {})
+        coords[name] = Column(("run",), design.values(name).copy(),
+                              {"units": units[name]} if units.get(name) else {})
     if time_grid is not None:
-        coords["time"] = ("time", np.asarray(time_grid, dtype=float), {"units": "s"})
+        coords["time"] = Column(("time",), np.asarray(time_grid, dtype=float), {"units": "s"})
         for k, out in enumerate(output_names):
             block = np.full((runs, len(time_grid)), math.nan)
             for i, record in enumerate(ordered):
                 series = record.get("series")
                 if series is not None and k < len(series):
                     block[i] = series[k]
-            data[f"output.{out}"] = (("run", "time"), block)
-    ds = xr.Dataset(data, coords=coords, attrs={k: v for k, v in attrs.items() if v is not None})
-    return ds
+            data[f"output.{out}"] = Column(("run", "time"), block)
+    return StudyTable(data, coords, {k: v for k, v in attrs.items() if v is not None})
+
+
+def _metric_columns(ordered: Sequence[dict], names: Sequence[str]) -> dict[str, np.ndarray]:
+    """Each metric's values over the runs (NaN where a run has none)."""
+    columns = {name: np.full(len(ordered), math.nan) for name in names}
+    for i, record in enumerate(ordered):
+        for name, value in record.get("values", {}).items():
+            column = columns.get(name)
+            if column is not None and value is not None:
+                column[i] = value
+    return columns
+
+
+def build_dataset(records: Mapping[int, dict], design, **settings):
+    """The study as an xarray Dataset (`build_table`'s arguments; imports xarray)."""
+    return build_table(records, design, **settings).to_xarray()
 
 
 def write_dataset(ds, path: str | os.PathLike) -> Path:
-    """Write with the pinned engine through `output.atomic_path` (a temporary file, then a
-    rename: never a half-written file)."""
+    """Write a StudyTable (`table.write_table`, without xarray) or an xarray Dataset (with the
+    pinned engine) through `output.atomic_path` (a temporary file, then a rename: never a
+    half-written file)."""
+    if isinstance(ds, StudyTable):
+        return write_table(ds, path)
     with atomic_path(path) as tmp:
         ds.to_netcdf(tmp, engine=ENGINE)
     return Path(path)

@@ -1,5 +1,6 @@
 """Run a study: a design (run matrix) on a generated module, locally or on Dask, with an
-incremental checkpoint, and assemble the results into an xarray Dataset / NetCDF file."""
+incremental checkpoint, and assemble the results into a StudyTable (plain arrays) or an xarray
+Dataset, and a NetCDF file."""
 
 from __future__ import annotations
 
@@ -23,7 +24,7 @@ from . import backends
 from .metrics import Metric, metric_attributes, static_metric_names
 from .progress import ProgressBar, StudyProgress
 from .spec import Design, SweepSpecError, make_design
-from .storage import (Checkpoint, CheckpointError, build_dataset, check_store, fingerprint,
+from .storage import (Checkpoint, CheckpointError, build_table, check_store, fingerprint,
                       open_study, partial_path, stored_seed, write_dataset)
 from .worker import ModuleRef, RunConfig, load_module
 
@@ -102,8 +103,11 @@ def _check_metrics(metrics) -> dict:
 def run_study(study: Study, *, workers: int | None = None, scheduler=None,
               store: str | os.PathLike | None = None, resume: bool = False,
               batch_size: int | None = None, progress: bool | None = None,
-              on_batch: Callable[[StudyProgress], None] | None = None):
-    """Run every run of `study` and return the results as an xarray Dataset.
+              on_batch: Callable[[StudyProgress], None] | None = None,
+              as_xarray: bool = True):
+    """Run every run of `study` and return the results as an xarray Dataset (as_xarray=False:
+    as a `table.StudyTable` of numpy arrays, without importing xarray; `.to_xarray()` gives
+    the Dataset; a finished study resumed from its file is read with xarray).
 
     scheduler: None runs a local process pool of `workers` processes (default: every core);
       "inline" runs in this process; "tcp://HOST:PORT" or a `distributed.Client` uses an
@@ -136,17 +140,17 @@ def run_study(study: Study, *, workers: int | None = None, scheduler=None,
         checkpoint.open(records)
     _refuse_out_of_range(study, records, checkpoint)
     _run_missing(plan, records, checkpoint, workers, scheduler, batch_size, progress, on_batch)
-    ds = build_dataset(records, study.design, static_metrics=plan.static,
-                       user_metrics=list(plan.config.metrics), output_names=plan.outputs,
-                       time_grid=plan.config.time_grid, attrs=plan.attrs,
-                       describe=plan.describe, parameter_units=plan.parameter_units)
+    table = build_table(records, study.design, static_metrics=plan.static,
+                        user_metrics=list(plan.config.metrics), output_names=plan.outputs,
+                        time_grid=plan.config.time_grid, attrs=plan.attrs,
+                        describe=plan.describe, parameter_units=plan.parameter_units)
     if store is not None:
-        write_dataset(ds, store)
+        write_dataset(table, store)
         # the checkpoint goes once the file is in place (inside `output.all_or_none`, at the
         # end of the block: if a later output fails, the runs stay resumable)
         checkpoint.close()
         when_written(checkpoint.remove)
-    return ds
+    return table.to_xarray() if as_xarray else table
 
 
 @dataclasses.dataclass(frozen=True)
@@ -353,10 +357,11 @@ def _execute(ref, config, matrix, todo, workers, scheduler, batch_size):
         # batches of up to 25 runs: a batch is the unit that an interruption can lose (a third
         # of a second of INTELSAT V's runs), and each costs the pool about a millisecond of
         # the parent's time, which shares the cores with the workers (2,000 INTELSAT V runs on
-        # 2 cores: 14.0 s in batches of 5, 13.6 s in batches of 25)
-        size = batch_size or backends.batch_size_for(len(todo), workers, 8, 25)
-        yield from backends.run_pool(ref, config, matrix, backends.split_batches(todo, size),
-                                     workers)
+        # 2 cores: 14.0 s in batches of 5, 13.6 s in batches of 25); shrinking to single runs
+        # at the end, so that the workers finish together (guided_batches)
+        batches = backends.split_batches(todo, batch_size) if batch_size \
+            else backends.guided_batches(todo, workers, 25)
+        yield from backends.run_pool(ref, config, matrix, batches, workers)
     elif scheduler in ("inline", "serial", "synchronous"):
         size = batch_size or backends.batch_size_for(len(todo), 1, 20, 20)
         yield from backends.run_inline(ref, config, matrix, backends.split_batches(todo, size))
@@ -392,12 +397,13 @@ def sweep(module: ModuleType | str | os.PathLike, *, grid=None, samples=None,
           quantity: Callable[[str, str], float] | None = None,
           defaults: np.ndarray | None = None, simulate: Callable | None = None,
           on_batch: Callable[[StudyProgress], None] | None = None,
-          check: Callable[[np.ndarray], list[str]] | None = None):
+          check: Callable[[np.ndarray], list[str]] | None = None, as_xarray: bool = True):
     """One call: build the design from grid/sample items and run it (see `make_design` and
     `run_study`). `module` is a generated module (with __file__) or its path; `defaults`
     replaces the module's PARAMETER_DEFAULTS as the base vector; `quantity(name, text)`
     converts values with units; `check(p)` lists the ranges a parameter vector breaks (those
-    runs are recorded as failed, unrun). Returns the xarray Dataset (also written to `out`)."""
+    runs are recorded as failed, unrun). Returns the xarray Dataset (also written to `out`;
+    as_xarray=False: the StudyTable, see `run_study`)."""
     path = Path(module.__file__) if isinstance(module, ModuleType) else Path(module)
     loaded = module if isinstance(module, ModuleType) else load_module(path)
     base = np.array(loaded.PARAMETER_DEFAULTS if defaults is None else defaults, dtype=float)
@@ -408,4 +414,5 @@ def sweep(module: ModuleType | str | os.PathLike, *, grid=None, samples=None,
     study = Study(path, design, t_end=t_end, dt_out=dt_out, tol=tol, metrics=metrics,
                   time_grid=time_grid, simulate=simulate, check=check)
     return run_study(study, workers=workers, scheduler=scheduler, store=out, resume=resume,
-                     batch_size=batch_size, progress=progress, on_batch=on_batch)
+                     batch_size=batch_size, progress=progress, on_batch=on_batch,
+                     as_xarray=as_xarray)
