@@ -340,10 +340,14 @@ int dep_iterate_multipliers(dep_multipliers *mp, int stage, double *lam, int nc,
                      DEP_MAX_ITERATIONS);
             return fail(mp, stage, current, nc, tol, 1, 0, reason, failure);
         }
-        /* the factor of this Jacobian itself contracting by less than SLOW_CONTRACTION: the
-           residual is near the round-off of the rows' terms (a chain of hundreds of spatial
-           bodies), where further updates and secants only wander: looked at below */
-        int slow_exact = mp->schur_exact && trial_error > SLOW_CONTRACTION * error;
+        /* in the acceleration pass, the factor of this Jacobian itself contracting by less
+           than SLOW_CONTRACTION: the residual is near the round-off of the rows' terms (a
+           chain of hundreds of spatial bodies), where further updates and secants only
+           wander: looked at below. (The position and velocity passes go on while they gain:
+           near a dead point their round-off level, set by the multipliers' large terms, is
+           above what the branch's positions are held to.) */
+        int slow_exact = stage == DEP_ACCELERATION && mp->schur_exact
+                         && trial_error > SLOW_CONTRACTION * error;
         if (!(trial_error <= tol) && trial_error > SLOW_CONTRACTION * error && !slow_exact) {
             learn_secant(mp, current, trial, nc, C, allowed, report); /* a slow contraction */
         }
