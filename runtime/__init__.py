@@ -28,10 +28,19 @@ _EXPORTS = {
 __all__ = sorted(_EXPORTS)
 
 
-def __getattr__(name: str):
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module 'depsim.runtime' has no attribute '{name}'")
-    value = getattr(importlib.import_module(f"{__name__}.{module}"), name)
-    globals()[name] = value
-    return value
+def lazy_exports(package: str, exports: dict, namespace: dict):
+    """A package's module __getattr__ that imports each name of `exports` (name -> its
+    submodule) on first use and keeps it in the package's `namespace`."""
+
+    def get(name: str):
+        module = exports.get(name)
+        if module is None:
+            raise AttributeError(f"module '{package}' has no attribute '{name}'")
+        value = getattr(importlib.import_module(f"{package}.{module}"), name)
+        namespace[name] = value
+        return value
+
+    return get
+
+
+__getattr__ = lazy_exports(__name__, _EXPORTS, globals())

@@ -14,7 +14,7 @@ The names below are imported on first use, so a study's worker process, which im
 storage, the summary or the plot).
 """
 
-import importlib
+from .. import lazy_exports
 
 _EXPORTS = {
     "sweep": "study", "Study": "study", "run_study": "study", "make_design": "spec",
@@ -30,12 +30,4 @@ _EXPORTS = {
 }
 
 __all__ = sorted(_EXPORTS)
-
-
-def __getattr__(name: str):
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module 'depsim.runtime.sweep' has no attribute '{name}'")
-    value = getattr(importlib.import_module(f"{__name__}.{module}"), name)
-    globals()[name] = value
-    return value
+__getattr__ = lazy_exports(__name__, _EXPORTS, globals())
