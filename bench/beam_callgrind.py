@@ -91,6 +91,15 @@ def callgrind(cmd: list[str], folder: Path) -> tuple[dict, dict, dict] | None:
     return inclusive, calls, by_caller
 
 
+def row(label: str, value: int | None, n: int, total: int, steps: int) -> None:
+    """One part's line: its share of the instructions, its calls, per call and per step."""
+    if value is None:
+        print(f"{label:<78} {'not found':>6}")
+        return
+    per_call = f"{value / n:10,.0f}" if n else f"{'':>10}"
+    print(f"{label:<78} {100 * value / total:5.1f}% {n:>8} {per_call} {value / steps:9,.0f}")
+
+
 def profile(cmd: list[str], folder: Path, steps: int) -> None:
     found = callgrind(cmd, folder)
     if found is None:
@@ -111,16 +120,7 @@ def profile(cmd: list[str], folder: Path, steps: int) -> None:
             value, n = by_caller.get((function, caller), (None, 0))
         else:
             value, n = inclusive.get(function), calls.get(function, 0)
-        if value is None:
-            print(f"{label:<78} {'not found':>6}")
-            continue
-        per_call = f"{value / n:10,.0f}" if n else f"{'':>10}"
-        print(f"{label:<78} {100 * value / total:5.1f}% {n:>8} {per_call} {value / steps:9,.0f}")
+        row(label, value, n, total, steps)
     print("\nthe same by kind of work, wherever it is called")
     for label, function in KINDS:
-        value, n = inclusive.get(function), calls.get(function, 0)
-        if value is None:
-            print(f"{label:<78} {'not found':>6}")
-            continue
-        per_call = f"{value / n:10,.0f}" if n else f"{'':>10}"
-        print(f"{label:<78} {100 * value / total:5.1f}% {n:>8} {per_call} {value / steps:9,.0f}")
+        row(label, inclusive.get(function), calls.get(function, 0), total, steps)

@@ -127,6 +127,19 @@ def _group(placeholder: sympy.Symbol) -> str:
     return name[1:].rstrip("0123456789")
 
 
+def renamed(value, roles: dict) -> sympy.Expr:
+    """A vector entry (a sympy expression, or a plain int or float of the kinematics) with its
+    symbols renamed by `roles`: the key of a block's kind. Numbers become sympy numbers by
+    their type; nothing is parsed."""
+    if isinstance(value, sympy.Basic):
+        return value.xreplace(roles)
+    if isinstance(value, int):
+        return sympy.Integer(value)
+    if isinstance(value, float):
+        return sympy.Float(value)
+    raise TypeError(f"not an expression or a number: {type(value).__name__}")
+
+
 def multiplier_roles(multipliers) -> list[tuple[sympy.Symbol, sympy.Symbol]]:
     """A block's rows' multipliers as the placeholders `#lam0`.. (group "lam")."""
     return [(s, sympy.Symbol(f"#lam{k}")) for k, s in enumerate(multipliers)]

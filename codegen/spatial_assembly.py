@@ -20,7 +20,7 @@ import sympy
 from depsim.dsl import ir
 
 from .assembly import Assembly, _joint_value, _Placing, _sides
-from .blocks import member_roles, named_roles
+from .blocks import member_roles, named_roles, renamed
 from .spatial import SpatialKinematics, Vector3, rotation_about, times, turn
 
 
@@ -153,7 +153,7 @@ def _placing_kind(kin: SpatialKinematics, hinge, placement: ir.Placement, frame,
     key = (parent.member.kind, child.member.kind, child_is_b, hinge.sign,
            kin.const(hinge.offset), kin.local_point(parent.member, parent.point),
            kin.local_point(child.member, child.point),
-           tuple(sympy.sympify(x).xreplace(names) for x in constants))
+           tuple(renamed(x, names) for x in constants))
     return key, roles
 
 

@@ -11,7 +11,7 @@ import sympy
 from depsim.dsl import ir
 
 from .assembly import Group
-from .blocks import member_roles, named_roles
+from .blocks import member_roles, named_roles, renamed
 from .spatial import SpatialKinematics, cross, dot, times
 
 # (d theta/dq as coordinate index -> entry, theta, theta', gamma, the hinge's steps)
@@ -67,7 +67,7 @@ class HingeDerivatives:
                                   if isinstance(x, sympy.Symbol)}, (f"{hinge.name}.",)))
         return (hinge.a.member.kind, hinge.b.member.kind, hinge.sign,
                 kin.hinge_near(index), kin.const(hinge.offset),
-                tuple(tuple(sympy.sympify(x).xreplace(roles) for x in vector)
+                tuple(tuple(renamed(x, roles) for x in vector)
                       for vector in inputs))
 
     def _template(self, index: int, parts: HingeParts) -> tuple | None:
