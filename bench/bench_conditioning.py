@@ -5,6 +5,7 @@ that pass through a singular position, on depsim's standalone C program.
     .venv/bin/python bench/bench_conditioning.py                  # both full tables
     .venv/bin/python bench/bench_conditioning.py --part chains --sizes 100,300 --tols 1e-6,1e-8
     .venv/bin/python bench/bench_conditioning.py --part parallelograms --counts 1,2 --t-end 5
+    .venv/bin/python bench/bench_conditioning.py --part parallelograms --releases 5,10,20,30
     .venv/bin/python bench/bench_conditioning.py --build /tmp/cond   # keep the built programs
 
 Chains: N bars hinged end to end, the first pinned to the ground origin, undamped, in gravity
@@ -27,7 +28,7 @@ the chains: the energy is the check.
 Parallelograms: N four-bar parallelograms sharing their cranks: cranks c0..cN pinned to the
 ground at x = 0, 1, ..., N, couplers k1..kN joining the tips of cranks i-1 and i; all links
 1 m, 1 kg (inertia 1/12 kg m^2), gravity, one degree of freedom; released at rest with the
-crank 10 deg above the horizontal, 0-20 s. The cranks swing through the horizontal, the
+crank 10 deg above the horizontal (--releases: other angles, `--set g0.initial_angle`), 0-20 s. The cranks swing through the horizontal, the
 singular position: there every crank and coupler lies on the line of the ground pivots, Phi_q
 loses rank (the constraints no longer fix the motion along that line to first order, and the
 parallelogram branch crosses the folded, anti-parallelogram one), so the reactions along the
@@ -37,9 +38,12 @@ sin(theta), theta the crank angle from the horizontal, integrated with scipy's D
 1e-13, atol 1e-14. Printed per case: completed or the failure; steps; the largest error of the
 first crank's tip position and velocity (m, m/s) against the reference over the output times,
 absolute and divided by tol; the energy drift (all bars' kinetic + gravity, from the CSV) over
-the largest kinetic energy, divided by tol; the wall time (median as for the chains).
+the largest kinetic energy, divided by tol; the wall time (median as for the chains). With
+several release angles, each N and tol also gets the errors' median and largest over them and
+how many runs kept both within 10 tol: the errors are phase errors, and one release is one
+draw of how they scatter with the crossings' step sequence.
 
-Every run has a timeout (--timeout, 300 s), reported as such. Programs are built with
+Every run has a timeout (--timeout, 900 s), reported as such. Programs are built with
 `depsim compile --target c` and `make` into --build (default a temporary folder); set
 DEPSIM_CACHE to keep the generated code of big chains between invocations.
 """
@@ -47,6 +51,7 @@ DEPSIM_CACHE to keep the generated code of big chains between invocations.
 from __future__ import annotations
 
 import argparse
+import math
 import re
 import statistics
 import subprocess
@@ -246,8 +251,10 @@ def chain_row(n: int, length: float, tol: float, run: Run) -> str:
 
 # --- parallelograms --------------------------------------------------------------------------
 
-def parallelogram_reference(n: int, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The crank angle and rate of the one-angle ODE at the given times (m = L = 1)."""
+def parallelogram_reference(n: int, times: np.ndarray, release: float = 10.0
+                            ) -> tuple[np.ndarray, np.ndarray]:
+    """The crank angle and rate of the one-angle ODE at the given times (m = L = 1), released
+    at rest `release` deg above the horizontal."""
     from scipy.integrate import solve_ivp
 
     inertia = (n + 1) / 3 + n
@@ -256,14 +263,14 @@ def parallelogram_reference(n: int, times: np.ndarray) -> tuple[np.ndarray, np.n
     def rhs(t, y):
         return [y[1], -weight * np.cos(y[0]) / inertia]
 
-    sol = solve_ivp(rhs, (0.0, times[-1]), [np.radians(10), 0.0], method="DOP853",
+    sol = solve_ivp(rhs, (0.0, times[-1]), [np.radians(release), 0.0], method="DOP853",
                     rtol=1e-13, atol=1e-14, t_eval=times)
     return sol.y[0], sol.y[1]
 
 
-def tip_errors(n: int, table: dict) -> tuple[float, float]:
+def tip_errors(n: int, table: dict, release: float = 10.0) -> tuple[float, float]:
     """The first crank's tip: largest position and velocity errors against the reference."""
-    theta, omega = parallelogram_reference(n, table["t"])
+    theta, omega = parallelogram_reference(n, table["t"], release)
     position = np.hypot(table["tip_x"] - np.cos(theta), table["tip_y"] - np.sin(theta))
     velocity = np.hypot(table["tip_vx"] + omega * np.sin(theta),
                         table["tip_vy"] - omega * np.cos(theta))
@@ -271,32 +278,56 @@ def tip_errors(n: int, table: dict) -> tuple[float, float]:
 
 
 def parallelogram_table(args, folder: Path) -> None:
-    print(f"\nParallelogram chains, 0-{args.t_end:g} s, released at rest 10 deg above the "
-          f"singular position; timeout {args.timeout:g} s")
-    print(f"{'N':>4} {'tol':>6} {'result':<10} {'accepted':>9} {'rej+retried':>11} "
+    releases = ", ".join(f"{a:g}" for a in args.releases)
+    print(f"\nParallelogram chains, 0-{args.t_end:g} s, released at rest {releases} deg above "
+          f"the singular position; timeout {args.timeout:g} s")
+    print(f"{'N':>4} {'tol':>6} {'deg':>4} {'result':<10} {'accepted':>9} {'rej+retried':>11} "
           f"{'pos err m':>10} {'/tol':>9} {'vel err m/s':>11} {'/tol':>9} "
           f"{'dE/KEmax/tol':>13} {'wall (s)':>9}")
     failures = []
     for n in args.counts:
         program, seconds = build(parallelogram_model(n), f"para{n}", folder)
         for tol in args.tols:
-            run = run_timed(program, tol, args.t_end, {}, folder / "para.csv", args)
-            print(parallelogram_row(n, tol, run), flush=True)
-            if run.status != "ok":
-                failures.append((f"N={n} tol={tol:g}", run))
+            errors = []
+            for release in args.releases:
+                run = run_timed(program, tol, args.t_end,
+                                {"g0.initial_angle": math.radians(release)},
+                                folder / "para.csv", args)
+                row, error = parallelogram_row(n, tol, release, run)
+                print(row, flush=True)
+                errors.append(error)
+                if run.status != "ok":
+                    failures.append((f"N={n} tol={tol:g} release={release:g} deg", run))
+            if len(args.releases) > 1:
+                print(spread_row(errors))
     failure_lines(failures)
 
 
-def parallelogram_row(n: int, tol: float, run: Run) -> str:
-    row = f"{n:>4} {tol:>6.0e} {outcome(run):<10}"
+def parallelogram_row(n: int, tol: float, release: float, run: Run
+                      ) -> tuple[str, tuple[float, float] | None]:
+    """The table's row, and the position and velocity errors in tol (None: no result)."""
+    row = f"{n:>4} {tol:>6.0e} {release:>4g} {outcome(run):<10}"
     if run.status != "ok":
         return row + f" {'':>9} {'':>11} {'':>10} {'':>9} {'':>11} {'':>9} {'':>13} " \
-                     f"{run.wall:>9.3f}"
-    position, velocity = tip_errors(n, run.table)
+                     f"{run.wall:>9.3f}", None
+    position, velocity = tip_errors(n, run.table, release)
     drift = energy_drift(run.table) / tol
     return (row + f" {run.accepted:>9} {run.rejected + run.retried:>11} {position:>10.2e} "
             f"{position / tol:>9.3g} {velocity:>11.2e} {velocity / tol:>9.3g} "
-            f"{drift:>13.3g} {run.wall:>9.3f}")
+            f"{drift:>13.3g} {run.wall:>9.3f}"), (position / tol, velocity / tol)
+
+
+def spread_row(errors: list[tuple[float, float] | None]) -> str:
+    """Over the release angles: the medians and largest errors, and how many runs kept both
+    within 10 tol."""
+    done = [e for e in errors if e is not None]
+    if not done:
+        return "      no run completed"
+    position, velocity = np.array(done).T
+    within = sum(p <= 10 and v <= 10 for p, v in done)
+    return (f"      over {len(errors)} releases: position median {np.median(position):.3g}, "
+            f"largest {position.max():.3g} tol; velocity median {np.median(velocity):.3g}, "
+            f"largest {velocity.max():.3g} tol; within 10 tol: {within} of {len(errors)}")
 
 
 # --- command line ----------------------------------------------------------------------------
@@ -319,10 +350,13 @@ def main(argv=None) -> int:
     parser.add_argument("--tols", type=numbers, default=[1e-6, 1e-8, 1e-10],
                         help="tolerances (1e-6,1e-8,1e-10)")
     parser.add_argument("--t-end", type=float, default=20.0, help="parallelograms' end, s")
+    parser.add_argument("--releases", type=numbers, default=[10.0],
+                        help="parallelograms' release angles above the horizontal, deg (10); "
+                             "several show how the errors scatter with the crossings' steps")
     parser.add_argument("--repeat", type=int, default=3, help="processes per case (median)")
     parser.add_argument("--repeat-below", type=float, default=10.0,
                         help="repeat only runs shorter than this, s")
-    parser.add_argument("--timeout", type=float, default=300.0, help="per run, s")
+    parser.add_argument("--timeout", type=float, default=900.0, help="per run, s")
     parser.add_argument("--build", type=Path, help="folder for the programs (kept)")
     args = parser.parse_args(argv)
     if args.quick:
