@@ -39,7 +39,7 @@
    its aim by about 1.03^(q + 1), a tenth. A change the controller wants within [SMALL_LOW,
    SMALL_HIGH] is taken at half its gain (its square root) before that test: where a resolved
    mode's error rises and falls with its phase (two_link_flex: the links' first axial mode, about
-   10 steps to its period), the step followed it, and W was new in a step of three; large changes
+   14 steps to its period), the step followed it, and W was new in a step of three; large changes
    (a start, an event, a new phase of the motion) are followed at once. two_link_flex at 16
    elements, tol 1e-8: 2.12 s without the half gain, 1.85 s with it (medians of 11), 27,000 and
    31,600 steps, chord2's error against the 64-element reference 5.7e-6 and 4.3e-6 rad (3.0e-5
