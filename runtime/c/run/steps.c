@@ -17,6 +17,15 @@
 #else
 #define TRACE(...) ((void)0)
 #endif
+/* Build with -DDEP_DUMP and run with DEP_DUMP=file (DEP_DUMP_FROM, DEP_DUMP_SPAN: the time
+   window, 3 and 0.02 s unless set) to write, for every linearly implicit step in the window,
+   what its error was measured on: t, h, nq, nc, the end state (q, qd), the positions' weights,
+   the filtered error's tangential part and the whole filtered error (q and qd each), and M,
+   W's K and Phi_q at the end, dense (doubles, native order). bench/beam_modes.py reads it and
+   splits the error by the constrained mechanism's modes. */
+#ifdef DEP_DUMP
+#include <stdlib.h>
+#endif
 
 #define MAX_FAILURES 12 /* consecutive non-converged steps (h / 4 each) before giving up */
 #define STIFF_BOUND 2.0 /* h |lambda| this near DOPRI5's stability bound (3.3 on the real
@@ -30,7 +39,7 @@
    its aim by about 1.03^(q + 1), a tenth. A change the controller wants within [SMALL_LOW,
    SMALL_HIGH] is taken at half its gain (its square root) before that test: where a resolved
    mode's error rises and falls with its phase (two_link_flex: the links' first axial mode, about
-   10 steps to its period), the step followed it, and W was new in a step of three; large changes
+   14 steps to its period), the step followed it, and W was new in a step of three; large changes
    (a start, an event, a new phase of the motion) are followed at once. two_link_flex at 16
    elements, tol 1e-8: 2.12 s without the half gain, 1.85 s with it (medians of 11), 27,000 and
    31,600 steps, chord2's error against the 64-element reference 5.7e-6 and 4.3e-6 rad (3.0e-5
@@ -316,6 +325,58 @@ static void add_friction_move(dep_run *run)
     run->friction_moved = 0;
 }
 
+#ifdef DEP_DUMP
+static void dump_step(dep_run *run, const dep_outcome *outcome, const double *scale)
+{
+    static FILE *file = NULL;
+    static int opened = 0;
+    const dep_rk_step *rk = outcome->rk;
+    const dep_implicit *im = &run->stepper.im;
+    int nq = run->nq, nc = run->cs.nc;
+    if (!opened) {
+        const char *path = getenv("DEP_DUMP");
+        opened = 1;
+        file = path != NULL ? fopen(path, "wb") : NULL;
+    }
+    const char *from = getenv("DEP_DUMP_FROM"), *span = getenv("DEP_DUMP_SPAN");
+    double t0 = from != NULL ? atof(from) : 3.0, t1 = t0 + (span != NULL ? atof(span) : 0.02);
+    if (file == NULL || rk->method != DEP_ROSENBROCK || rk->t0 < t0 || rk->t0 >= t1) {
+        return;
+    }
+    size_t n = (size_t)nq;
+    double header[4] = {rk->t0, rk->h, (double)nq, (double)nc};
+    double *dense = malloc(sizeof(double) * (2 * n * n + (size_t)nc * n + n + (size_t)nc));
+    if (dense == NULL) {
+        return;
+    }
+    fwrite(header, sizeof(double), 4, file);
+    fwrite(rk->y1, sizeof(double), 2 * n, file);
+    fwrite(scale, sizeof(double), n, file);
+    fwrite(run->tangent, sizeof(double), 2 * n, file);
+    fwrite(rk->error, sizeof(double), 2 * n, file);
+    for (int a = 0; a < 2; ++a) { /* M, K from W's envelope (lower triangles, mirrored) */
+        const double *values = a == 0 ? im->mass_envelope : im->K_envelope;
+        for (int i = 0; i < nq; ++i) {
+            for (int j = 0; j < nq; ++j) {
+                int r = i > j ? i : j, c = i > j ? j : i;
+                dense[(size_t)a * n * n + (size_t)i * n + j] =
+                    c >= im->W.first[r] ? DEP_ENVELOPE_AT(&im->W, values, r, c) : 0.0;
+            }
+        }
+    }
+    double *rows = dense + 2 * n * n, *unit = rows + (size_t)nc * n;
+    for (int i = 0; i < nc; ++i) { /* Phi_q's row i: J^T e_i */
+        for (int k = 0; k < nc; ++k) {
+            unit[k] = k == i;
+        }
+        dep_cs_transpose_times(&run->cs, outcome->J1, unit, rows + (size_t)i * n);
+    }
+    fwrite(dense, sizeof(double), 2 * n * n + (size_t)nc * n, file);
+    fflush(file);
+    free(dense);
+}
+#endif
+
 /* The step's errors in tolerance units (1 = at tolerance; method/control.c). */
 static void step_errors(dep_run *run, const dep_outcome *outcome, dep_step_errors *e)
 {
@@ -334,6 +395,9 @@ static void step_errors(dep_run *run, const dep_outcome *outcome, dep_step_error
     } else {
         e->ode = dep_rms(run->tangent, scale, run->ny);
     }
+#ifdef DEP_DUMP
+    dump_step(run, outcome, scale);
+#endif
     e->ode_order = rk->order;
     dep_stepper_use_mobility(&run->stepper, DEP_POSITION);
     interpolation_errors(run, outcome, scale, e);
@@ -534,8 +598,9 @@ int dep_run_advance(dep_run *run, double *h)
         step_errors(run, &run->outcome, &errors);
         int accepted = dep_step_error(&errors) <= 1.0;
         double fac = dep_step_factor(&errors, run->err_previous, accepted);
-        TRACE("step t=%.17g h=%.17g ode=%.17g lam=%.17g iterations %d %d %d "
-              "integrations %d %s\n", run->state.t, *h, errors.ode, errors.lam,
+        TRACE("step t=%.17g h=%.17g ode=%.17g lam=%.17g fac=%.4g rho_fac=%.4g iterations "
+              "%d %d %d integrations %d %s\n", run->state.t, *h, errors.ode, errors.lam, fac,
+              dep_convergence_factor(&run->outcome.reports[0]),
               run->outcome.reports[0].iterations,
               run->outcome.reports[1].iterations, run->outcome.reports[2].iterations,
               run->outcome.integrations, accepted ? "accepted" : "rejected");
