@@ -27,7 +27,7 @@ from .spatial import (SpatialKinematics, spatial_coordinate_scales, spatial_mass
                       spatial_rows)
 from .spatial_assembly import assemble_spatial, hinge_turns
 from .spatial_hinges import HingeDerivatives
-from .spatial_blocks import row_derivatives, row_parts, spatial_blocks
+from .spatial_blocks import row_derivatives, row_parts, spatial_blocks, tree_blocks
 from .system import SYSTEM_STATE, OutputScope, RowIndex, run_value_names
 
 
@@ -235,7 +235,8 @@ def derive(model: ir.Model) -> SymbolicSystem:
     symbols, beams = build_coordinates(model)
     if model.spatial:
         placing = SpatialKinematics(model, symbols)
-        assembly = assemble_spatial(model, placing)
+        placings: list = []
+        assembly = assemble_spatial(model, placing, placings)
         kin = SpatialKinematics(model, symbols, hinge_turns(model, placing, assembly))
         rows = [_Row(*row) for row in spatial_rows(model, kin)]
         mass = spatial_mass_matrix(model, kin)
@@ -283,7 +284,8 @@ def derive(model: ir.Model) -> SymbolicSystem:
                   "hinge_jacobian": _places([hinge_jacobian[i, j]
                                              for i, j in hinge_jacobian_pattern])}
         blocks = spatial_blocks(model, kin, parts, phi_q_pattern, hinge_jacobian_pattern,
-                                values, (phi_q, entries, lam))
+                                values, (phi_q, entries, lam)) \
+            + tree_blocks(assembly, placings, symbols.q, symbols.qd)
     system = SymbolicSystem(
         name=model.name,
         constants=tuple(((symbol, value),) for symbol, value in constants.items()),

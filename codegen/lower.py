@@ -108,6 +108,9 @@ class FunctionView:
     statements: tuple[Statement, ...]
     ieee: bool = False  # evaluated with IEEE semantics (IEEE_FUNCTIONS)
     kernels: tuple[KernelView, ...] = ()  # the kernels its calls use
+    # local arrays another model function fills before the body: (array, size, function,
+    # its arguments), e.g. ("pose", NQ, "tree_pose", ("v", "p"))
+    computed: tuple[tuple[str, int, str, tuple[str, ...]], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -152,6 +155,13 @@ class FunctionSpec:
     # hinge steps, then the function's own
     steps: tuple[Group, ...] = ()
     blocks: tuple[Block, ...] = ()  # repeated parts of its results (codegen/blocks.py)
+    # a step symbol that is the whole entry of a place a kernel's call writes is read back
+    # from that place of the result wherever else it is used (the tree's blocks: a child's
+    # placement reads its parent's coordinates), not computed again
+    reads_results: bool = False
+    # the coordinates q read from a local array `pose` that tree_pose fills first (the
+    # tree's tangent: its pose steps not written again)
+    pose: bool = False
 
 
 def function_specs(system: SymbolicSystem, tangents: bool = False, kernels: bool = False
@@ -182,11 +192,14 @@ def function_specs(system: SymbolicSystem, tangents: bool = False, kernels: bool
     }
     prelude = s.constants + s.hinge_steps
     blocks = dict(s.blocks) if kernels else {}
+    tree = ("tree_pose", "tree_tangent")
     specs = tuple(FunctionSpec(f.name, f.args, f.summary,
                                tuple((r.name, m) for r, m in zip(f.results, matrices[f.name])),
                                flatten=len(f.results[0].shape) == 1,
                                steps=prelude + steps.get(f.name, ()),
-                               blocks=blocks.get(f.name, ()))
+                               blocks=blocks.get(f.name, ()),
+                               reads_results=f.name in tree and f.name in blocks,
+                               pose=f.name == "tree_tangent" and f.name in blocks)
                   for f in interface.FUNCTIONS)
     if not tangents:
         return specs
@@ -261,12 +274,18 @@ def lower_function(system: SymbolicSystem, spec: FunctionSpec,
     exprs = [rest[place] for place in places]
     # each call's arguments follow the entries, as one tuple each
     arguments = [value for instance in instances for group in instance.args for value in group]
+    reads, read_slots, writes = _result_reads(system, spec, entries, instances)
+    steps = spec.steps
+    if reads:
+        exprs = [value.xreplace(reads) for value in exprs]
+        arguments = [value.xreplace(reads) for value in arguments]
+        steps = _read_steps(steps, exprs + arguments, reads)
     names = sympy.numbered_symbols("x")
-    program, reduced_all = _program(spec.steps, exprs + arguments, names)
+    program, reduced_all = _program(steps, exprs + arguments, names)
     definitions, reduced_all = sympy.cse(reduced_all, symbols=names)
     definitions, reduced_all = _split_sums(program + definitions, reduced_all, names)
     reduced, call_args = reduced_all[:len(exprs)], reduced_all[len(exprs):]
-    inputs = slots(system, spec.args)
+    inputs = {**slots(system, spec.args), **read_slots}
     _check_inputs(spec.name, definitions, reduced_all, inputs)
     print_ = printer(inputs, [name for name, _ in definitions]).doprint
     printed = {name: Assignment(name.name, print_(value)) for name, value in definitions}
@@ -279,6 +298,8 @@ def lower_function(system: SymbolicSystem, spec: FunctionSpec,
         for instance, (values, call) in zip(instances, calls)]
     # a sum's calls after every entry (they add to the entries)
     items.sort(key=lambda item: (item[2] is not None and item[2].accumulate, item[0]))
+    if writes:
+        items = _after_writers(items, writes, definitions)
     order = _demand_order(definitions, [value for _, value, _ in items])
     results_entries: list[list[Entry]] = [[] for _ in spec.results]
     statements: list[Statement] = []
@@ -295,8 +316,95 @@ def lower_function(system: SymbolicSystem, spec: FunctionSpec,
     results = tuple(ResultView(name, _shape(matrix, spec.flatten), tuple(found), count)
                     for (name, matrix), found, count in zip(spec.results, results_entries,
                                                             written))
+    computed = (("pose", len(system.q), "tree_pose", tuple(
+        f.args for f in interface.FUNCTIONS if f.name == "tree_pose")[0]),) if spec.pose else ()
     return FunctionView(spec.name, spec.args, spec.summary, tuple(printed.values()), results,
-                        tuple(statements), spec.name in IEEE_FUNCTIONS, kernel_views)
+                        tuple(statements), spec.name in IEEE_FUNCTIONS, kernel_views, computed)
+
+
+def _result_reads(system: SymbolicSystem, spec: FunctionSpec, entries, instances):
+    """What a function reads back instead of computing again (FunctionSpec.reads_results,
+    pose): step symbol -> the symbol of the slot holding it, each slot symbol's text, and
+    per slot symbol written by a kernel's call, that call's first place."""
+    reads: dict[sympy.Symbol, sympy.Symbol] = {}
+    texts: dict[sympy.Symbol, str] = {}
+    writes: dict[sympy.Symbol, tuple[int, int, int]] = {}
+
+    def slot(symbol: sympy.Symbol, text: str) -> sympy.Symbol:
+        reads[symbol] = sympy.Symbol(f"#{text}")  # '#' keeps it apart from the model's
+        texts[reads[symbol]] = text
+        return reads[symbol]
+
+    if spec.pose:
+        for k, symbol in enumerate(system.q):
+            slot(symbol, f"pose[{k}]")
+    if spec.reads_results:
+        defined = {symbol for group in spec.steps for symbol, _ in group}
+        for instance in instances:
+            if instance.terms is not None:
+                continue
+            for r, i, j in instance.places:
+                value = entries[r].get((i, j))
+                if value in defined and value not in reads:
+                    name, matrix = spec.results[r]
+                    writes[slot(value, f"{name}[{i * matrix.cols + j}]")] = instance.places[0]
+    return reads, texts, writes
+
+
+def _read_steps(steps: tuple[Group, ...], exprs, reads: dict) -> tuple[Group, ...]:
+    """The steps `exprs` need when the symbols of `reads` are read from their slots: their
+    own steps dropped, and in the others they are renamed to their slots."""
+    needed = set().union(*(value.free_symbols for value in exprs))
+    kept: list[Group] = []
+    for group in reversed(steps):
+        group = tuple((symbol, value.xreplace(reads)) for symbol, value in group
+                      if symbol in needed and symbol not in reads)
+        if group:
+            kept.append(group)
+            needed |= set().union(*(value.free_symbols for _, value in group))
+    kept.reverse()
+    return tuple(kept)
+
+
+def _after_writers(items: list, writes: dict, definitions) -> list:
+    """`items` (place, value, call) in their order but each after the calls writing the
+    slots it reads, directly or through the temporaries it needs (a child placed before its
+    parent in the coordinates' order)."""
+    reading: dict[sympy.Symbol, frozenset] = {}
+    for name, value in definitions:
+        found = {writes[s] for s in value.free_symbols if s in writes}
+        for s in value.free_symbols:
+            found |= reading.get(s, frozenset())
+        reading[name] = frozenset(found)
+    written: set = set()
+    waiting: dict[tuple, list] = {}
+    ordered: list = []
+
+    def needs(item) -> set:
+        place, value, call = item
+        found = {writes[s] for s in value.free_symbols if s in writes}
+        for s in value.free_symbols:
+            found |= reading.get(s, frozenset())
+        return found - written - ({place} if call is not None else set())
+
+    def emit(item) -> None:
+        ordered.append(item)
+        if item[2] is not None:
+            written.add(item[0])
+            for other in waiting.pop(item[0], []):
+                place(other)
+
+    def place(item) -> None:
+        missing = needs(item)
+        if missing:
+            waiting.setdefault(min(missing), []).append(item)
+        else:
+            emit(item)
+
+    for item in items:
+        place(item)
+    assert not waiting, "a read of a slot no call writes"
+    return ordered
 
 
 def _lower_kernel(name: str, kind, printer: PrinterFactory) -> KernelView:

@@ -171,3 +171,20 @@ def _block(kin: SpatialKinematics, label: str, places, steps, members, prefixes,
     assert places, f"a {label} block without entries"
     return Block(label, tuple(places), tuple(steps),
                  tuple(block_roles(kin, members, prefixes, symbols, rates)))
+
+
+def tree_blocks(assembly, placings, q, qd) -> tuple[tuple[str, tuple[Block, ...]], ...]:
+    """tree_pose's and tree_tangent's blocks: each hinge's placement of its child
+    (`placings`: spatial_assembly.assemble_spatial's, its group's index and roles), the
+    child's coordinates (their rates) as the block's entries and its pose (tangent) group as
+    its steps. A kernel of such a block reads its parent's coordinates (rates) from the
+    results the blocks before it wrote (lower.FunctionSpec.reads_results)."""
+    column = {symbol: j for j, symbol in enumerate(q)}
+    column.update({symbol: j for j, symbol in enumerate(qd)})
+    found: dict[str, list[Block]] = {"tree_pose": [], "tree_tangent": []}
+    for name, groups in (("tree_pose", assembly.pose), ("tree_tangent", assembly.tangent)):
+        for index, roles in placings:
+            group = groups[index]
+            places = tuple((0, column[symbol], 0) for symbol, _ in group)
+            found[name].append(Block("hinge", places, (group,), roles))
+    return tuple((name, tuple(blocks)) for name, blocks in found.items())
