@@ -256,16 +256,17 @@ def derive(model: ir.Model) -> SymbolicSystem:
     lam, entries, phi_q_lam = _transpose_times(phi_q)
     phi_t = phi.diff(t)
     sliding = core_sliders(model)  # the sliders after the hinges in the hinge tables
-    thetas = column([kin.hinge_theta(i) for i in range(len(model.hinges))]
-                    + [kin.slider_s(i) for i in sliding])
-    if model.spatial:
+    if model.spatial:  # a hinge written out in q (atan2 of S, C) only where a load needs it
+        thetas = _Angles(kin, len(model.hinges), [kin.slider_s(i) for i in sliding])
         hinge_jacobian, angles, rates, hinge_gamma = _spatial_hinge_derivatives(
             model, kin, thetas, symbols)
     else:
+        thetas = column([kin.hinge_theta(i) for i in range(len(model.hinges))]
+                        + [kin.slider_s(i) for i in sliding])
         hinge_jacobian = jacobian(thetas, q)
         hinge_gamma = acceleration_rhs(thetas, hinge_jacobian, symbols)
         angles, rates = thetas, times(hinge_jacobian, symbols.qd)
-    loads = derive_loads(model, kin, mass, list(thetas), hinge_jacobian)
+    loads = derive_loads(model, kin, mass, thetas, hinge_jacobian)
     run_values = run_value_names(model, loads.dissipator_names)
     w = tuple(sympy.Symbol(f"@w{i}") for i in range(len(run_values)))
     scope = OutputScope(kin, mass, lam, w,
@@ -432,7 +433,28 @@ def _hinge_properties(model: ir.Model, kin: Kinematics) -> ImmutableMatrix:
         for joint in joints for name in HINGE_PROPERTIES])
 
 
-def _spatial_hinge_derivatives(model: ir.Model, kin, thetas: ImmutableMatrix,
+class _Angles:
+    """A spatial model's hinge angles (kin.hinge_theta), each written out when first asked
+    for, then its sliders' displacements (`displacements`)."""
+
+    def __init__(self, kin, hinges: int, displacements: list[sympy.Expr]) -> None:
+        self.kin, self.hinges, self.displacements = kin, hinges, displacements
+        self.found: dict[int, sympy.Expr] = {}
+
+    def __len__(self) -> int:
+        return self.hinges + len(self.displacements)
+
+    def __getitem__(self, index: int) -> sympy.Expr:
+        if index < 0 or index >= len(self):
+            raise IndexError(index)
+        if index >= self.hinges:
+            return self.displacements[index - self.hinges]
+        if index not in self.found:
+            self.found[index] = self.kin.hinge_theta(index)
+        return self.found[index]
+
+
+def _spatial_hinge_derivatives(model: ir.Model, kin, thetas: _Angles,
                                symbols: Coordinates
                                ) -> tuple[ImmutableSparseMatrix, ImmutableMatrix,
                                           ImmutableMatrix, ImmutableMatrix]:
@@ -445,14 +467,14 @@ def _spatial_hinge_derivatives(model: ir.Model, kin, thetas: ImmutableMatrix,
     parts = [hinges.of(i) for i in range(nh)]
     entries = {(i, j): value for i, (gradient, *_) in enumerate(parts)
                for j, value in gradient.items()}
-    displacements = column(thetas[nh:])
+    displacements = column(thetas.displacements)
     slider_jacobian = jacobian(displacements, symbols.q)
     entries.update({(nh + i, j): value for (i, j), value in slider_jacobian.todok().items()})
     angles = [theta for _, theta, _, _ in parts] + list(displacements)
     rates = [rate for _, _, rate, _ in parts] + list(times(slider_jacobian, symbols.qd))
     gammas = [gamma for *_, gamma in parts] \
         + list(acceleration_rhs(displacements, slider_jacobian, symbols))
-    return (ImmutableSparseMatrix(thetas.rows, len(symbols.q), entries), column(angles),
+    return (ImmutableSparseMatrix(len(thetas), len(symbols.q), entries), column(angles),
             column(rates), column(gammas))
 
 
