@@ -252,11 +252,55 @@ def slots(system: SymbolicSystem, args: tuple[str, ...]) -> dict[sympy.Symbol, s
 IEEE_FUNCTIONS = ("outputs", interface.tangent_name("outputs"))
 
 
+@dataclass(frozen=True)
+class SharedConstants:
+    """A spatial model's named constants (SymbolicSystem.constants) lowered once for the
+    functions that use many of them (those with blocks): each constant's lowered value (a
+    temporary k<i>, a number or an input), the temporaries in order with what each needs and
+    its printed assignment. A function takes the temporaries it needs, in that order."""
+
+    rename: dict
+    definitions: tuple[tuple[sympy.Symbol, sympy.Expr], ...]
+    needs: dict
+    printed: dict
+
+
+def shared_constants(system: SymbolicSystem, printer: PrinterFactory) -> SharedConstants:
+    """The constants' program (`_program`, its temporaries named k<i> and kx<i>), printed."""
+    symbols = [symbol for group in system.constants for symbol, _ in group]
+    definitions, reduced = _program(system.constants, symbols, sympy.numbered_symbols("kx"),
+                                    step_prefix="k")
+    definitions, _ = _split_sums(definitions, [], sympy.numbered_symbols("ks"))
+    inputs = slots(system, ("p",))
+    _check_inputs("constants", definitions, reduced, inputs)
+    print_ = printer(inputs, [name for name, _ in definitions]).doprint
+    position = {name for name, _ in definitions}
+    return SharedConstants(dict(zip(symbols, reduced)), tuple(definitions),
+                           {name: [x for x in value.free_symbols if x in position]
+                            for name, value in definitions},
+                           {name: Assignment(name.name, print_(value))
+                            for name, value in definitions})
+
+
+def _shared_needed(shared: SharedConstants, exprs) -> list[tuple[sympy.Symbol, sympy.Expr]]:
+    """The shared constants' temporaries `exprs` need, directly or not, in their order."""
+    stack = [x for value in exprs for x in value.free_symbols if x in shared.needs]
+    found: set[sympy.Symbol] = set()
+    while stack:
+        name = stack.pop()
+        if name not in found:
+            found.add(name)
+            stack += shared.needs[name]
+    return [(name, value) for name, value in shared.definitions if name in found]
+
+
 def lower_function(system: SymbolicSystem, spec: FunctionSpec,
-                   printer: PrinterFactory) -> FunctionView:
+                   printer: PrinterFactory, shared: SharedConstants | None = None
+                   ) -> FunctionView:
     """CSE the function's non-zero entries together and print them through `printer`; a
     function with steps computes them first (`_program`). The entries of its blocks whose
-    kind repeats are written by a kernel's call each (`_kernels`)."""
+    kind repeats are written by a kernel's call each (`_kernels`). `shared`: the named
+    constants lowered once, taken as they are."""
     assert tuple(a for a in ARGUMENT_ORDER if a in spec.args) == spec.args, spec.args
     entries = [matrix.todok() for _, matrix in spec.results]  # the non-zeros (sparse or not)
     places = [(r, i, j) for r, found in enumerate(entries)
@@ -276,19 +320,26 @@ def lower_function(system: SymbolicSystem, spec: FunctionSpec,
     arguments = [value for instance in instances for group in instance.args for value in group]
     reads, read_slots, writes = _result_reads(system, spec, entries, instances)
     steps = spec.steps
+    if shared is not None:  # the constants' groups: one step each
+        steps = tuple(group for group in steps if group[0][0] not in shared.rename)
     if reads:
         exprs = [value.xreplace(reads) for value in exprs]
         arguments = [value.xreplace(reads) for value in arguments]
         steps = _read_steps(steps, exprs + arguments, reads)
     names = sympy.numbered_symbols("x")
-    program, reduced_all = _program(steps, exprs + arguments, names)
+    program, reduced_all = _program(steps, exprs + arguments, names,
+                                    renamed=shared.rename if shared is not None else None)
     definitions, reduced_all = sympy.cse(reduced_all, symbols=names)
     definitions, reduced_all = _split_sums(program + definitions, reduced_all, names)
+    taken = _shared_needed(shared, [value for _, value in definitions] + reduced_all) \
+        if shared is not None else []
+    definitions = taken + definitions
     reduced, call_args = reduced_all[:len(exprs)], reduced_all[len(exprs):]
     inputs = {**slots(system, spec.args), **read_slots}
     _check_inputs(spec.name, definitions, reduced_all, inputs)
     print_ = printer(inputs, [name for name, _ in definitions]).doprint
-    printed = {name: Assignment(name.name, print_(value)) for name, value in definitions}
+    printed = {name: shared.printed[name] if shared is not None and name in shared.printed
+               else Assignment(name.name, print_(value)) for name, value in definitions}
     kernel_views = tuple(_lower_kernel(f"{spec.name}_{kind.label}_{k}", kind, printer)
                          for k, kind in enumerate(kernel_kinds))
     calls = _calls(spec, kernel_views, instances, call_args, print_)
@@ -504,16 +555,18 @@ def _demand_order(definitions, reduced) -> list[list[sympy.Symbol]]:
     return order
 
 
-def _program(steps: tuple[Group, ...], exprs: list[sympy.Expr], names
+def _program(steps: tuple[Group, ...], exprs: list[sympy.Expr], names, step_prefix: str = "s",
+             renamed: dict | None = None
              ) -> tuple[list[tuple[sympy.Symbol, sympy.Expr]], list[sympy.Expr]]:
-    """The steps the results need, as temporaries in order (each step's symbol renamed s<k>,
-    the CSE of a window of groups before it), and the results in those names. A window
-    gathers consecutive groups while none refers to a symbol defined in it, so each member's
-    few terms share their sines and cosines with its neighbours' without one CSE over the
-    whole tree."""
+    """The steps the results need, as temporaries in order (each step's symbol renamed
+    <step_prefix><k>, the CSE of a window of groups before it), and the results in those
+    names. A window gathers consecutive groups while none refers to a symbol defined in it,
+    so each member's few terms share their sines and cosines with its neighbours' without one
+    CSE over the whole tree. `renamed`: symbols already lowered (SharedConstants), by their
+    names."""
     kept = needed_steps(steps, exprs)  # only what the results need: no C variable unused
-    rename: dict[sympy.Symbol, sympy.Expr] = {}
-    steps_named = sympy.numbered_symbols("s")
+    rename: dict[sympy.Symbol, sympy.Expr] = dict(renamed or {})
+    steps_named = sympy.numbered_symbols(step_prefix)
     temporaries: list[tuple[sympy.Symbol, sympy.Expr]] = []
     window: list[tuple[sympy.Symbol, sympy.Expr]] = []
 
@@ -640,6 +693,8 @@ def lower_module(model: ir.Model, system: SymbolicSystem, printer: PrinterFactor
     }
     tables = tuple(TableView(t.constant, t.field, t.ctype, values[t.constant])
                    for t in interface.TABLES)
+    # the named constants lowered once for the functions with blocks (a backend with kernels)
+    shared = shared_constants(system, printer) if kernels and system.constants else None
     counts = {"NQ": len(system.coordinates), "NC": len(system.constraint_names),
               "NP": len(model.params)}
     sizes = tuple((s.field, s.constant, counts.get(s.constant, len(values.get(s.constant, ()))))
@@ -651,7 +706,8 @@ def lower_module(model: ir.Model, system: SymbolicSystem, printer: PrinterFactor
         sizes=sizes, tables=tables,
         t_end=model.simulation.t_end, tol=model.simulation.tol, dt_out=model.simulation.dt_out,
         functions=tuple(lower_function(system, spec, ieee_printer if ieee_printer is not None
-                                       and spec.name in IEEE_FUNCTIONS else printer)
+                                       and spec.name in IEEE_FUNCTIONS else printer,
+                                       shared if spec.blocks else None)
                         for spec in function_specs(system, tangents, kernels)),
         tangents=tangents,
     )
