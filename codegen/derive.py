@@ -27,7 +27,8 @@ from .spatial import (SpatialKinematics, spatial_coordinate_scales, spatial_mass
                       spatial_rows)
 from .spatial_assembly import assemble_spatial, hinge_turns
 from .spatial_hinges import HingeDerivatives
-from .spatial_blocks import row_derivatives, row_parts, spatial_blocks, tree_blocks
+from .spatial_blocks import (row_derivatives, row_parts, spatial_blocks, sum_blocks,
+                             tree_blocks)
 from .system import SYSTEM_STATE, OutputScope, RowIndex, run_value_names
 
 
@@ -273,10 +274,12 @@ def derive(model: ir.Model) -> SymbolicSystem:
                         RowIndex({(row.joint, row.name.rsplit(".", 1)[1]): i
                                   for i, row in enumerate(rows)}),
                         loads.energies, loads.dissipator_names, loads.springs)
+    system_state = column(scope.system_quantity(name, None) for name in state_names)
     constants = {}  # the spatial geometry's named constants, in the order they were named
     phi_q_pattern, hinge_jacobian_pattern = _pattern(phi_q), _pattern(hinge_jacobian)
     blocks = ()
     if model.spatial:
+        rate_of = dict(zip(symbols.q, symbols.qd))
         constants = {**placing.constants, **kin.constants}
         values = {"phi": _places(phi), "gamma": _places(gamma),
                   "phi_q": _places([phi_q[i, j] for i, j in phi_q_pattern]),
@@ -286,7 +289,10 @@ def derive(model: ir.Model) -> SymbolicSystem:
                                              for i, j in hinge_jacobian_pattern])}
         blocks = spatial_blocks(model, kin, parts, phi_q_pattern, hinge_jacobian_pattern,
                                 values, (phi_q, entries, lam)) \
-            + tree_blocks(assembly, placings, symbols.q, symbols.qd)
+            + tree_blocks(assembly, placings, symbols.q, symbols.qd) \
+            + (("system_state", sum_blocks(system_state, [
+                (kin.body_symbols(i), [rate_of[s] for s in kin.body_symbols(i)])
+                for i in range(len(model.bodies))])),)
     system = SymbolicSystem(
         name=model.name,
         constants=tuple(((symbol, value),) for symbol, value in constants.items()),
@@ -311,7 +317,7 @@ def derive(model: ir.Model) -> SymbolicSystem:
         coordinate_scales=scales,
         output_names=tuple(o.name for o in model.outputs),
         outputs=column(_output(o, scope) for o in model.outputs), w=w,
-        system_state=column(scope.system_quantity(name, None) for name in state_names),
+        system_state=system_state,
         system_state_names=state_names,
         run_value_names=run_values,
         energy_names=loads.energy_names, energy=column(loads.energies),

@@ -19,7 +19,7 @@ from depsim.dsl.limits import LIMIT_KINDS, message_format
 from depsim.runtime import interface
 
 from .assembly import Group
-from .blocks import Block, kinds
+from .blocks import Block, Place, kinds
 from .derive import SymbolicSystem, column
 from .printing import LoweringError, SlotPrinter
 from .tangent import as_groups, direction, needed_steps, tangent_program
@@ -311,9 +311,12 @@ def lower_function(system: SymbolicSystem, spec: FunctionSpec,
     covered = {place for instance in instances if instance.terms is None
                for place in instance.places}
     rest = {place: entries[place[0]][place[1:]] for place in places if place not in covered}
+    taken: dict[Place, list[sympy.Expr]] = {}
     for instance in instances:  # a sum's blocks: their calls add their terms
         for place, term in zip(instance.places or (), instance.terms or ()):
-            rest[place] = rest.get(place, sympy.Integer(0)) - term
+            taken.setdefault(place, []).append(-term)
+    for place, terms in taken.items():  # one sum each: an entry of thousands of terms
+        rest[place] = sympy.Add(rest.get(place, sympy.Integer(0)), *terms)
     places = [place for place in places if place in rest and rest[place] != 0]
     exprs = [rest[place] for place in places]
     # each call's arguments follow the entries, as one tuple each

@@ -79,3 +79,15 @@ def test_a_chains_tree_is_placed_by_kernels(built_cases):
                      "tree_pose_hinge_0(q + 24, c, q + 12);", "tree_pose_hinge_0(q + 12, c, q);"]
     assert "model_tree_pose(v, p, pose);" in tangent
     assert "tree_tangent_hinge_0(pose + 12, qd + 12, c, qd);" in tangent
+
+
+def test_a_chains_system_state_adds_each_bodys_terms(built_cases):
+    """The momenta and the angular momentum of spatial_chain.dep's five equal bars: each
+    bar's terms a kernel's call adding them (test_functions_match_numpy checks the values)."""
+    text = (built_cases("model:spatial_chain").folder / "model.c").read_text()
+    state = text[text.index("void model_system_state("):]
+    state = state[:state.index("\n}\n")]
+    assert [line.strip() for line in state.splitlines() if "system_state_body_0(" in line] \
+        == [f"system_state_body_0({q}, {q.replace('q', 'qd')}, p, out);"
+            for q in ("q", "q + 12", "q + 24", "q + 36", "q + 48")]
+    assert state.count("s[7] += out[3];") == 5
