@@ -179,6 +179,7 @@ def c_function(f: FunctionView) -> CFunction:
     texts = [a.value for a in f.temporaries] + [e.value for r in f.results for e in r.entries]
     texts += [", ".join(values) + "," + (pointer or "") for s in f.statements if s.call
               for (_, values), pointer in zip(s.call.args, s.call.pointers)]
+    texts += [f"{arg}[" for *_, args in f.computed for arg in args]
     unused = [a for a in f.args if not _uses(texts, a)]
     results = []
     for r in f.results:
@@ -191,7 +192,10 @@ def c_function(f: FunctionView) -> CFunction:
         results.append(CResult(r.name, size, fill))
         if size == 0:  # an empty result (no dissipators, no outputs): nothing to write
             unused.append(r.name)
-    statements = tuple(
+    computed = tuple(CStatement("", "", "", "", (
+        f"double {array}[{size}];", f"model_{function}({', '.join(args + (array,))});"))
+        for array, size, function, args in f.computed)
+    statements = computed + tuple(
         CStatement("", "", "", "", _call_lines(s.call, f.results)) if s.call is not None else
         CStatement("", s.assignment.name, s.assignment.value, "") if s.result < 0 else
         CStatement(f.results[s.result].name, str(s.entry.flat), s.entry.value,

@@ -27,7 +27,8 @@ from .spatial import (SpatialKinematics, spatial_coordinate_scales, spatial_mass
                       spatial_rows)
 from .spatial_assembly import assemble_spatial, hinge_turns
 from .spatial_hinges import HingeDerivatives
-from .spatial_blocks import row_derivatives, row_parts, spatial_blocks
+from .spatial_blocks import (row_derivatives, row_parts, spatial_blocks, sum_blocks,
+                             tree_blocks)
 from .system import SYSTEM_STATE, OutputScope, RowIndex, run_value_names
 
 
@@ -235,7 +236,8 @@ def derive(model: ir.Model) -> SymbolicSystem:
     symbols, beams = build_coordinates(model)
     if model.spatial:
         placing = SpatialKinematics(model, symbols)
-        assembly = assemble_spatial(model, placing)
+        placings: list = []
+        assembly = assemble_spatial(model, placing, placings)
         kin = SpatialKinematics(model, symbols, hinge_turns(model, placing, assembly))
         rows = [_Row(*row) for row in spatial_rows(model, kin)]
         mass = spatial_mass_matrix(model, kin)
@@ -255,26 +257,29 @@ def derive(model: ir.Model) -> SymbolicSystem:
     lam, entries, phi_q_lam = _transpose_times(phi_q)
     phi_t = phi.diff(t)
     sliding = core_sliders(model)  # the sliders after the hinges in the hinge tables
-    thetas = column([kin.hinge_theta(i) for i in range(len(model.hinges))]
-                    + [kin.slider_s(i) for i in sliding])
-    if model.spatial:
+    if model.spatial:  # a hinge written out in q (atan2 of S, C) only where a load needs it
+        thetas = _Angles(kin, len(model.hinges), [kin.slider_s(i) for i in sliding])
         hinge_jacobian, angles, rates, hinge_gamma = _spatial_hinge_derivatives(
             model, kin, thetas, symbols)
     else:
+        thetas = column([kin.hinge_theta(i) for i in range(len(model.hinges))]
+                        + [kin.slider_s(i) for i in sliding])
         hinge_jacobian = jacobian(thetas, q)
         hinge_gamma = acceleration_rhs(thetas, hinge_jacobian, symbols)
         angles, rates = thetas, times(hinge_jacobian, symbols.qd)
-    loads = derive_loads(model, kin, mass, list(thetas), hinge_jacobian)
+    loads = derive_loads(model, kin, mass, thetas, hinge_jacobian)
     run_values = run_value_names(model, loads.dissipator_names)
     w = tuple(sympy.Symbol(f"@w{i}") for i in range(len(run_values)))
     scope = OutputScope(kin, mass, lam, w,
                         RowIndex({(row.joint, row.name.rsplit(".", 1)[1]): i
                                   for i, row in enumerate(rows)}),
                         loads.energies, loads.dissipator_names, loads.springs)
+    system_state = column(scope.system_quantity(name, None) for name in state_names)
     constants = {}  # the spatial geometry's named constants, in the order they were named
     phi_q_pattern, hinge_jacobian_pattern = _pattern(phi_q), _pattern(hinge_jacobian)
     blocks = ()
     if model.spatial:
+        rate_of = dict(zip(symbols.q, symbols.qd))
         constants = {**placing.constants, **kin.constants}
         values = {"phi": _places(phi), "gamma": _places(gamma),
                   "phi_q": _places([phi_q[i, j] for i, j in phi_q_pattern]),
@@ -283,7 +288,11 @@ def derive(model: ir.Model) -> SymbolicSystem:
                   "hinge_jacobian": _places([hinge_jacobian[i, j]
                                              for i, j in hinge_jacobian_pattern])}
         blocks = spatial_blocks(model, kin, parts, phi_q_pattern, hinge_jacobian_pattern,
-                                values, (phi_q, entries, lam))
+                                values, (phi_q, entries, lam)) \
+            + tree_blocks(assembly, placings, symbols.q, symbols.qd) \
+            + (("system_state", sum_blocks(system_state, [
+                (kin.body_symbols(i), [rate_of[s] for s in kin.body_symbols(i)])
+                for i in range(len(model.bodies))])),)
     system = SymbolicSystem(
         name=model.name,
         constants=tuple(((symbol, value),) for symbol, value in constants.items()),
@@ -308,7 +317,7 @@ def derive(model: ir.Model) -> SymbolicSystem:
         coordinate_scales=scales,
         output_names=tuple(o.name for o in model.outputs),
         outputs=column(_output(o, scope) for o in model.outputs), w=w,
-        system_state=column(scope.system_quantity(name, None) for name in state_names),
+        system_state=system_state,
         system_state_names=state_names,
         run_value_names=run_values,
         energy_names=loads.energy_names, energy=column(loads.energies),
@@ -430,7 +439,28 @@ def _hinge_properties(model: ir.Model, kin: Kinematics) -> ImmutableMatrix:
         for joint in joints for name in HINGE_PROPERTIES])
 
 
-def _spatial_hinge_derivatives(model: ir.Model, kin, thetas: ImmutableMatrix,
+class _Angles:
+    """A spatial model's hinge angles (kin.hinge_theta), each written out when first asked
+    for, then its sliders' displacements (`displacements`)."""
+
+    def __init__(self, kin, hinges: int, displacements: list[sympy.Expr]) -> None:
+        self.kin, self.hinges, self.displacements = kin, hinges, displacements
+        self.found: dict[int, sympy.Expr] = {}
+
+    def __len__(self) -> int:
+        return self.hinges + len(self.displacements)
+
+    def __getitem__(self, index: int) -> sympy.Expr:
+        if index < 0 or index >= len(self):
+            raise IndexError(index)
+        if index >= self.hinges:
+            return self.displacements[index - self.hinges]
+        if index not in self.found:
+            self.found[index] = self.kin.hinge_theta(index)
+        return self.found[index]
+
+
+def _spatial_hinge_derivatives(model: ir.Model, kin, thetas: _Angles,
                                symbols: Coordinates
                                ) -> tuple[ImmutableSparseMatrix, ImmutableMatrix,
                                           ImmutableMatrix, ImmutableMatrix]:
@@ -443,14 +473,14 @@ def _spatial_hinge_derivatives(model: ir.Model, kin, thetas: ImmutableMatrix,
     parts = [hinges.of(i) for i in range(nh)]
     entries = {(i, j): value for i, (gradient, *_) in enumerate(parts)
                for j, value in gradient.items()}
-    displacements = column(thetas[nh:])
+    displacements = column(thetas.displacements)
     slider_jacobian = jacobian(displacements, symbols.q)
     entries.update({(nh + i, j): value for (i, j), value in slider_jacobian.todok().items()})
     angles = [theta for _, theta, _, _ in parts] + list(displacements)
     rates = [rate for _, _, rate, _ in parts] + list(times(slider_jacobian, symbols.qd))
     gammas = [gamma for *_, gamma in parts] \
         + list(acceleration_rhs(displacements, slider_jacobian, symbols))
-    return (ImmutableSparseMatrix(thetas.rows, len(symbols.q), entries), column(angles),
+    return (ImmutableSparseMatrix(len(thetas), len(symbols.q), entries), column(angles),
             column(rates), column(gammas))
 
 

@@ -164,8 +164,9 @@ def spring_law(kin: Kinematics, index: int) -> SpringLaw:
 
 
 def derive_loads(model: ir.Model, kin: Kinematics, mass_matrix: sympy.SparseMatrix,
-                 thetas: list[sympy.Expr], jacobian: sympy.SparseMatrix) -> Loads:
-    """Energies, dissipators and f for a model whose hinge angles and d theta/dq are given."""
+                 thetas, jacobian: sympy.SparseMatrix) -> Loads:
+    """Energies, dissipators and f for a model whose hinge angles (a sequence, indexed only
+    where a spring or a cable needs an angle) and d theta/dq are given."""
     qd = kin.symbols.qd
     kinetic = sympy.Add(*(value * qd[i] * qd[j] / 2
                           for (i, j), value in sorted(mass_matrix.todok().items())))
@@ -213,14 +214,13 @@ def _potential_force(kin: Kinematics, potentials: list[tuple[str, sympy.Expr]]) 
     return [force[s] for s in kin.symbols.q]
 
 
-def _potentials(model: ir.Model, kin: Kinematics,
-                thetas: list[sympy.Expr]) -> list[tuple[str, sympy.Expr]]:
+def _potentials(model: ir.Model, kin: Kinematics, thetas) -> list[tuple[str, sympy.Expr]]:
     """(name, V) of each potential, in the order of the ENERGIES contract."""
     terms = []
     def sprung(joint) -> bool:
         return joint.stiffness is not None or joint.preload is not None
 
-    joints = [(hinge, theta) for hinge, theta in zip(model.hinges, thetas) if sprung(hinge)]
+    joints = [(hinge, thetas[i]) for i, hinge in enumerate(model.hinges) if sprung(hinge)]
     joints += [(slider, kin.slider_s(index)) for index, slider in enumerate(model.sliders)
                if sprung(slider)]
     for joint, x in joints:  # V = stiffness x^2 / 2 - preload x, x the angle or s

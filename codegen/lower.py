@@ -19,7 +19,7 @@ from depsim.dsl.limits import LIMIT_KINDS, message_format
 from depsim.runtime import interface
 
 from .assembly import Group
-from .blocks import Block, kinds
+from .blocks import Block, Place, kinds
 from .derive import SymbolicSystem, column
 from .printing import LoweringError, SlotPrinter
 from .tangent import as_groups, direction, needed_steps, tangent_program
@@ -108,6 +108,9 @@ class FunctionView:
     statements: tuple[Statement, ...]
     ieee: bool = False  # evaluated with IEEE semantics (IEEE_FUNCTIONS)
     kernels: tuple[KernelView, ...] = ()  # the kernels its calls use
+    # local arrays another model function fills before the body: (array, size, function,
+    # its arguments), e.g. ("pose", NQ, "tree_pose", ("v", "p"))
+    computed: tuple[tuple[str, int, str, tuple[str, ...]], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -152,6 +155,13 @@ class FunctionSpec:
     # hinge steps, then the function's own
     steps: tuple[Group, ...] = ()
     blocks: tuple[Block, ...] = ()  # repeated parts of its results (codegen/blocks.py)
+    # a step symbol that is the whole entry of a place a kernel's call writes is read back
+    # from that place of the result wherever else it is used (the tree's blocks: a child's
+    # placement reads its parent's coordinates), not computed again
+    reads_results: bool = False
+    # the coordinates q read from a local array `pose` that tree_pose fills first (the
+    # tree's tangent: its pose steps not written again)
+    pose: bool = False
 
 
 def function_specs(system: SymbolicSystem, tangents: bool = False, kernels: bool = False
@@ -182,11 +192,14 @@ def function_specs(system: SymbolicSystem, tangents: bool = False, kernels: bool
     }
     prelude = s.constants + s.hinge_steps
     blocks = dict(s.blocks) if kernels else {}
+    tree = ("tree_pose", "tree_tangent")
     specs = tuple(FunctionSpec(f.name, f.args, f.summary,
                                tuple((r.name, m) for r, m in zip(f.results, matrices[f.name])),
                                flatten=len(f.results[0].shape) == 1,
                                steps=prelude + steps.get(f.name, ()),
-                               blocks=blocks.get(f.name, ()))
+                               blocks=blocks.get(f.name, ()),
+                               reads_results=f.name in tree and f.name in blocks,
+                               pose=f.name == "tree_tangent" and f.name in blocks)
                   for f in interface.FUNCTIONS)
     if not tangents:
         return specs
@@ -239,11 +252,55 @@ def slots(system: SymbolicSystem, args: tuple[str, ...]) -> dict[sympy.Symbol, s
 IEEE_FUNCTIONS = ("outputs", interface.tangent_name("outputs"))
 
 
+@dataclass(frozen=True)
+class SharedConstants:
+    """A spatial model's named constants (SymbolicSystem.constants) lowered once for the
+    functions that use many of them (those with blocks): each constant's lowered value (a
+    temporary k<i>, a number or an input), the temporaries in order with what each needs and
+    its printed assignment. A function takes the temporaries it needs, in that order."""
+
+    rename: dict
+    definitions: tuple[tuple[sympy.Symbol, sympy.Expr], ...]
+    needs: dict
+    printed: dict
+
+
+def shared_constants(system: SymbolicSystem, printer: PrinterFactory) -> SharedConstants:
+    """The constants' program (`_program`, its temporaries named k<i> and kx<i>), printed."""
+    symbols = [symbol for group in system.constants for symbol, _ in group]
+    definitions, reduced = _program(system.constants, symbols, sympy.numbered_symbols("kx"),
+                                    step_prefix="k")
+    definitions, _ = _split_sums(definitions, [], sympy.numbered_symbols("ks"))
+    inputs = slots(system, ("p",))
+    _check_inputs("constants", definitions, reduced, inputs)
+    print_ = printer(inputs, [name for name, _ in definitions]).doprint
+    position = {name for name, _ in definitions}
+    return SharedConstants(dict(zip(symbols, reduced)), tuple(definitions),
+                           {name: [x for x in value.free_symbols if x in position]
+                            for name, value in definitions},
+                           {name: Assignment(name.name, print_(value))
+                            for name, value in definitions})
+
+
+def _shared_needed(shared: SharedConstants, exprs) -> list[tuple[sympy.Symbol, sympy.Expr]]:
+    """The shared constants' temporaries `exprs` need, directly or not, in their order."""
+    stack = [x for value in exprs for x in value.free_symbols if x in shared.needs]
+    found: set[sympy.Symbol] = set()
+    while stack:
+        name = stack.pop()
+        if name not in found:
+            found.add(name)
+            stack += shared.needs[name]
+    return [(name, value) for name, value in shared.definitions if name in found]
+
+
 def lower_function(system: SymbolicSystem, spec: FunctionSpec,
-                   printer: PrinterFactory) -> FunctionView:
+                   printer: PrinterFactory, shared: SharedConstants | None = None
+                   ) -> FunctionView:
     """CSE the function's non-zero entries together and print them through `printer`; a
     function with steps computes them first (`_program`). The entries of its blocks whose
-    kind repeats are written by a kernel's call each (`_kernels`)."""
+    kind repeats are written by a kernel's call each (`_kernels`). `shared`: the named
+    constants lowered once, taken as they are."""
     assert tuple(a for a in ARGUMENT_ORDER if a in spec.args) == spec.args, spec.args
     entries = [matrix.todok() for _, matrix in spec.results]  # the non-zeros (sparse or not)
     places = [(r, i, j) for r, found in enumerate(entries)
@@ -254,22 +311,38 @@ def lower_function(system: SymbolicSystem, spec: FunctionSpec,
     covered = {place for instance in instances if instance.terms is None
                for place in instance.places}
     rest = {place: entries[place[0]][place[1:]] for place in places if place not in covered}
+    taken: dict[Place, list[sympy.Expr]] = {}
     for instance in instances:  # a sum's blocks: their calls add their terms
         for place, term in zip(instance.places or (), instance.terms or ()):
-            rest[place] = rest.get(place, sympy.Integer(0)) - term
+            taken.setdefault(place, []).append(-term)
+    for place, terms in taken.items():  # one sum each: an entry of thousands of terms
+        rest[place] = sympy.Add(rest.get(place, sympy.Integer(0)), *terms)
     places = [place for place in places if place in rest and rest[place] != 0]
     exprs = [rest[place] for place in places]
     # each call's arguments follow the entries, as one tuple each
     arguments = [value for instance in instances for group in instance.args for value in group]
+    reads, read_slots, writes = _result_reads(system, spec, entries, instances)
+    steps = spec.steps
+    if shared is not None:  # the constants' groups: one step each
+        steps = tuple(group for group in steps if group[0][0] not in shared.rename)
+    if reads:
+        exprs = [value.xreplace(reads) for value in exprs]
+        arguments = [value.xreplace(reads) for value in arguments]
+        steps = _read_steps(steps, exprs + arguments, reads)
     names = sympy.numbered_symbols("x")
-    program, reduced_all = _program(spec.steps, exprs + arguments, names)
+    program, reduced_all = _program(steps, exprs + arguments, names,
+                                    renamed=shared.rename if shared is not None else None)
     definitions, reduced_all = sympy.cse(reduced_all, symbols=names)
     definitions, reduced_all = _split_sums(program + definitions, reduced_all, names)
+    taken = _shared_needed(shared, [value for _, value in definitions] + reduced_all) \
+        if shared is not None else []
+    definitions = taken + definitions
     reduced, call_args = reduced_all[:len(exprs)], reduced_all[len(exprs):]
-    inputs = slots(system, spec.args)
+    inputs = {**slots(system, spec.args), **read_slots}
     _check_inputs(spec.name, definitions, reduced_all, inputs)
     print_ = printer(inputs, [name for name, _ in definitions]).doprint
-    printed = {name: Assignment(name.name, print_(value)) for name, value in definitions}
+    printed = {name: shared.printed[name] if shared is not None and name in shared.printed
+               else Assignment(name.name, print_(value)) for name, value in definitions}
     kernel_views = tuple(_lower_kernel(f"{spec.name}_{kind.label}_{k}", kind, printer)
                          for k, kind in enumerate(kernel_kinds))
     calls = _calls(spec, kernel_views, instances, call_args, print_)
@@ -279,6 +352,8 @@ def lower_function(system: SymbolicSystem, spec: FunctionSpec,
         for instance, (values, call) in zip(instances, calls)]
     # a sum's calls after every entry (they add to the entries)
     items.sort(key=lambda item: (item[2] is not None and item[2].accumulate, item[0]))
+    if writes:
+        items = _after_writers(items, writes, definitions)
     order = _demand_order(definitions, [value for _, value, _ in items])
     results_entries: list[list[Entry]] = [[] for _ in spec.results]
     statements: list[Statement] = []
@@ -295,8 +370,95 @@ def lower_function(system: SymbolicSystem, spec: FunctionSpec,
     results = tuple(ResultView(name, _shape(matrix, spec.flatten), tuple(found), count)
                     for (name, matrix), found, count in zip(spec.results, results_entries,
                                                             written))
+    computed = (("pose", len(system.q), "tree_pose", tuple(
+        f.args for f in interface.FUNCTIONS if f.name == "tree_pose")[0]),) if spec.pose else ()
     return FunctionView(spec.name, spec.args, spec.summary, tuple(printed.values()), results,
-                        tuple(statements), spec.name in IEEE_FUNCTIONS, kernel_views)
+                        tuple(statements), spec.name in IEEE_FUNCTIONS, kernel_views, computed)
+
+
+def _result_reads(system: SymbolicSystem, spec: FunctionSpec, entries, instances):
+    """What a function reads back instead of computing again (FunctionSpec.reads_results,
+    pose): step symbol -> the symbol of the slot holding it, each slot symbol's text, and
+    per slot symbol written by a kernel's call, that call's first place."""
+    reads: dict[sympy.Symbol, sympy.Symbol] = {}
+    texts: dict[sympy.Symbol, str] = {}
+    writes: dict[sympy.Symbol, tuple[int, int, int]] = {}
+
+    def slot(symbol: sympy.Symbol, text: str) -> sympy.Symbol:
+        reads[symbol] = sympy.Symbol(f"#{text}")  # '#' keeps it apart from the model's
+        texts[reads[symbol]] = text
+        return reads[symbol]
+
+    if spec.pose:
+        for k, symbol in enumerate(system.q):
+            slot(symbol, f"pose[{k}]")
+    if spec.reads_results:
+        defined = {symbol for group in spec.steps for symbol, _ in group}
+        for instance in instances:
+            if instance.terms is not None:
+                continue
+            for r, i, j in instance.places:
+                value = entries[r].get((i, j))
+                if value in defined and value not in reads:
+                    name, matrix = spec.results[r]
+                    writes[slot(value, f"{name}[{i * matrix.cols + j}]")] = instance.places[0]
+    return reads, texts, writes
+
+
+def _read_steps(steps: tuple[Group, ...], exprs, reads: dict) -> tuple[Group, ...]:
+    """The steps `exprs` need when the symbols of `reads` are read from their slots: their
+    own steps dropped, and in the others they are renamed to their slots."""
+    needed = set().union(*(value.free_symbols for value in exprs))
+    kept: list[Group] = []
+    for group in reversed(steps):
+        group = tuple((symbol, value.xreplace(reads)) for symbol, value in group
+                      if symbol in needed and symbol not in reads)
+        if group:
+            kept.append(group)
+            needed |= set().union(*(value.free_symbols for _, value in group))
+    kept.reverse()
+    return tuple(kept)
+
+
+def _after_writers(items: list, writes: dict, definitions) -> list:
+    """`items` (place, value, call) in their order but each after the calls writing the
+    slots it reads, directly or through the temporaries it needs (a child placed before its
+    parent in the coordinates' order)."""
+    reading: dict[sympy.Symbol, frozenset] = {}
+    for name, value in definitions:
+        found = {writes[s] for s in value.free_symbols if s in writes}
+        for s in value.free_symbols:
+            found |= reading.get(s, frozenset())
+        reading[name] = frozenset(found)
+    written: set = set()
+    waiting: dict[tuple, list] = {}
+    ordered: list = []
+
+    def needs(item) -> set:
+        place, value, call = item
+        found = {writes[s] for s in value.free_symbols if s in writes}
+        for s in value.free_symbols:
+            found |= reading.get(s, frozenset())
+        return found - written - ({place} if call is not None else set())
+
+    def emit(item) -> None:
+        ordered.append(item)
+        if item[2] is not None:
+            written.add(item[0])
+            for other in waiting.pop(item[0], []):
+                place(other)
+
+    def place(item) -> None:
+        missing = needs(item)
+        if missing:
+            waiting.setdefault(min(missing), []).append(item)
+        else:
+            emit(item)
+
+    for item in items:
+        place(item)
+    assert not waiting, "a read of a slot no call writes"
+    return ordered
 
 
 def _lower_kernel(name: str, kind, printer: PrinterFactory) -> KernelView:
@@ -396,16 +558,18 @@ def _demand_order(definitions, reduced) -> list[list[sympy.Symbol]]:
     return order
 
 
-def _program(steps: tuple[Group, ...], exprs: list[sympy.Expr], names
+def _program(steps: tuple[Group, ...], exprs: list[sympy.Expr], names, step_prefix: str = "s",
+             renamed: dict | None = None
              ) -> tuple[list[tuple[sympy.Symbol, sympy.Expr]], list[sympy.Expr]]:
-    """The steps the results need, as temporaries in order (each step's symbol renamed s<k>,
-    the CSE of a window of groups before it), and the results in those names. A window
-    gathers consecutive groups while none refers to a symbol defined in it, so each member's
-    few terms share their sines and cosines with its neighbours' without one CSE over the
-    whole tree."""
+    """The steps the results need, as temporaries in order (each step's symbol renamed
+    <step_prefix><k>, the CSE of a window of groups before it), and the results in those
+    names. A window gathers consecutive groups while none refers to a symbol defined in it,
+    so each member's few terms share their sines and cosines with its neighbours' without one
+    CSE over the whole tree. `renamed`: symbols already lowered (SharedConstants), by their
+    names."""
     kept = needed_steps(steps, exprs)  # only what the results need: no C variable unused
-    rename: dict[sympy.Symbol, sympy.Expr] = {}
-    steps_named = sympy.numbered_symbols("s")
+    rename: dict[sympy.Symbol, sympy.Expr] = dict(renamed or {})
+    steps_named = sympy.numbered_symbols(step_prefix)
     temporaries: list[tuple[sympy.Symbol, sympy.Expr]] = []
     window: list[tuple[sympy.Symbol, sympy.Expr]] = []
 
@@ -532,6 +696,8 @@ def lower_module(model: ir.Model, system: SymbolicSystem, printer: PrinterFactor
     }
     tables = tuple(TableView(t.constant, t.field, t.ctype, values[t.constant])
                    for t in interface.TABLES)
+    # the named constants lowered once for the functions with blocks (a backend with kernels)
+    shared = shared_constants(system, printer) if kernels and system.constants else None
     counts = {"NQ": len(system.coordinates), "NC": len(system.constraint_names),
               "NP": len(model.params)}
     sizes = tuple((s.field, s.constant, counts.get(s.constant, len(values.get(s.constant, ()))))
@@ -543,7 +709,8 @@ def lower_module(model: ir.Model, system: SymbolicSystem, printer: PrinterFactor
         sizes=sizes, tables=tables,
         t_end=model.simulation.t_end, tol=model.simulation.tol, dt_out=model.simulation.dt_out,
         functions=tuple(lower_function(system, spec, ieee_printer if ieee_printer is not None
-                                       and spec.name in IEEE_FUNCTIONS else printer)
+                                       and spec.name in IEEE_FUNCTIONS else printer,
+                                       shared if spec.blocks else None)
                         for spec in function_specs(system, tangents, kernels)),
         tangents=tangents,
     )

@@ -24,10 +24,15 @@ from .blocks import member_roles, named_roles, renamed
 from .spatial import SpatialKinematics, Vector3, rotation_about, times, turn
 
 
-def assemble_spatial(model: ir.Model, kin: SpatialKinematics) -> Assembly:
-    """The tree placement of a spatial model's members and its initial values."""
+def assemble_spatial(model: ir.Model, kin: SpatialKinematics,
+                     placings: list | None = None) -> Assembly:
+    """The tree placement of a spatial model's members and its initial values; `placings`,
+    when given, gets each hinge's placement as (its group's index in the pose and the
+    tangent, the roles of its symbols: `_placing_kind`), for its tree blocks
+    (spatial_blocks.tree_blocks)."""
     state = _Placing(dict(zip(kin.symbols.q, kin.symbols.qd)))
-    place = {ir.JointKind.HINGE: functools.partial(_place_hinge, placed={}),
+    place = {ir.JointKind.HINGE: functools.partial(
+                 _place_hinge, placed={}, placings=[] if placings is None else placings),
              ir.JointKind.WELD: _place_weld,
              ir.JointKind.BALL: _place_ball, ir.JointKind.FREE: _place_free,
              ir.JointKind.SLIDER: _place_slider, ir.JointKind.CYLINDRICAL: _place_cylindrical,
@@ -105,15 +110,17 @@ def _place_turned(kin: SpatialKinematics, joint, placement: ir.Placement,
 
 
 def _place_hinge(kin: SpatialKinematics, placement: ir.Placement, state: _Placing,
-                 placed: dict) -> None:
+                 placed: dict, placings: list) -> None:
     """Place a hinge's child turned by its angle about the axis; the steps of a kind of
     placement (`_placing_kind`) written out once and renamed for the others (`placed`:
-    kind -> the first one's steps over placeholders)."""
+    kind -> the first one's steps over placeholders); its group and roles onto
+    `placings`."""
     hinge = kin.model.hinges[placement.joint]
     theta = _joint_value(kin, hinge.name, hinge.initial_angle, hinge.initial_rate,
                          hinge.held, state)
     frame = kin.hinge_frame(placement.joint)
     key, roles = _placing_kind(kin, hinge, placement, frame, theta, state)
+    placings.append((len(state.pose), tuple(roles)))
     if key in placed:
         back = {x: symbol for symbol, x in roles}
         pose, tangent = (tuple((s.xreplace(back), v.xreplace(back)) for s, v in group)

@@ -171,3 +171,46 @@ def _block(kin: SpatialKinematics, label: str, places, steps, members, prefixes,
     assert places, f"a {label} block without entries"
     return Block(label, tuple(places), tuple(steps),
                  tuple(block_roles(kin, members, prefixes, symbols, rates)))
+
+
+def tree_blocks(assembly, placings, q, qd) -> tuple[tuple[str, tuple[Block, ...]], ...]:
+    """tree_pose's and tree_tangent's blocks: each hinge's placement of its child
+    (`placings`: spatial_assembly.assemble_spatial's, its group's index and roles), the
+    child's coordinates (their rates) as the block's entries and its pose (tangent) group as
+    its steps. A kernel of such a block reads its parent's coordinates (rates) from the
+    results the blocks before it wrote (lower.FunctionSpec.reads_results)."""
+    column = {symbol: j for j, symbol in enumerate(q)}
+    column.update({symbol: j for j, symbol in enumerate(qd)})
+    found: dict[str, list[Block]] = {"tree_pose": [], "tree_tangent": []}
+    for name, groups in (("tree_pose", assembly.pose), ("tree_tangent", assembly.tangent)):
+        for index, roles in placings:
+            group = groups[index]
+            places = tuple((0, column[symbol], 0) for symbol, _ in group)
+            found[name].append(Block("hinge", places, (group,), roles))
+    return tuple((name, tuple(blocks)) for name, blocks in found.items())
+
+
+def sum_blocks(values, members) -> tuple[Block, ...]:
+    """The blocks of a function whose entries are sums over the bodies (system_state: the
+    momenta, the angular momentum about the origin): each body's terms of each entry, those
+    terms of the entry's sum that hold its coordinates or rates (member side a) and no other
+    member's; `members`: each body's (coordinates, rates). A kernel's call adds its body's
+    terms; the rest of each entry (terms of no body or of several) stays inline."""
+    owner = {}
+    for index, (coordinates, rates) in enumerate(members):
+        owner.update({symbol: index for symbol in (*coordinates, *rates)})
+    found: dict[int, dict[int, list[sympy.Expr]]] = {}
+    for row, value in enumerate(values):
+        if not isinstance(value, sympy.Add):
+            continue
+        for term in value.args:
+            bodies = {owner[s] for s in term.free_symbols if s in owner}
+            if len(bodies) == 1:
+                found.setdefault(bodies.pop(), {}).setdefault(row, []).append(term)
+    blocks = []
+    for index, terms in sorted(found.items()):
+        rows = sorted(terms)
+        blocks.append(Block("body", tuple((0, row, 0) for row in rows), (),
+                            tuple(member_roles("a", *members[index])),
+                            tuple(sympy.Add(*terms[row]) for row in rows)))
+    return tuple(blocks)

@@ -63,3 +63,31 @@ def test_model_compiles_under_strict_c99(built, tmp_path):
     run = subprocess.run([*compiler(), *STRICT, "-c", str(built.folder / "model.c"),
                           "-o", str(tmp_path / "model.o")], capture_output=True, text=True)
     assert run.returncode == 0, run.stderr
+
+
+def test_a_chains_tree_is_placed_by_kernels(built_cases):
+    """tests/codegen/models/spatial_chain.dep: each hinge's placement of a kind that repeats
+    is a kernel's call reading its parent's coordinates (rates) from the result, the bars
+    placed in the tree's order though listed from the tip; the tangent reads the pose that
+    tree_pose wrote (test_functions_match_numpy checks their values)."""
+    text = (built_cases("model:spatial_chain").folder / "model.c").read_text()
+    pose = text[text.index("void model_tree_pose("):text.index("void model_tree_tangent(")]
+    tangent = text[text.index("void model_tree_tangent("):]
+    tangent = tangent[:tangent.index("\n}\n")]
+    calls = [line.strip() for line in pose.splitlines() if "tree_pose_hinge_0(" in line]
+    assert calls == ["tree_pose_hinge_0(a, c, q + 36);", "tree_pose_hinge_0(q + 36, c, q + 24);",
+                     "tree_pose_hinge_0(q + 24, c, q + 12);", "tree_pose_hinge_0(q + 12, c, q);"]
+    assert "model_tree_pose(v, p, pose);" in tangent
+    assert "tree_tangent_hinge_0(pose + 12, qd + 12, c, qd);" in tangent
+
+
+def test_a_chains_system_state_adds_each_bodys_terms(built_cases):
+    """The momenta and the angular momentum of spatial_chain.dep's five equal bars: each
+    bar's terms a kernel's call adding them (test_functions_match_numpy checks the values)."""
+    text = (built_cases("model:spatial_chain").folder / "model.c").read_text()
+    state = text[text.index("void model_system_state("):]
+    state = state[:state.index("\n}\n")]
+    assert [line.strip() for line in state.splitlines() if "system_state_body_0(" in line] \
+        == [f"system_state_body_0({q}, {q.replace('q', 'qd')}, p, out);"
+            for q in ("q", "q + 12", "q + 24", "q + 36", "q + 48")]
+    assert state.count("s[7] += out[3];") == 5
