@@ -35,12 +35,16 @@ from .lower import Call, FunctionView, KernelView, ModuleView, lower_module
 C_ENVIRONMENT = ENVIRONMENT.overlay()
 C_ENVIRONMENT.filters.update(c_string=c_string, c_comment=c_comment, c_double=c_double)
 
-GENERATED_FILES = ("model.c", "model.h", "Makefile")
 # A function whose expressions are longer than this many characters goes into a file of its own,
 # model_<name>.c: a C compiler's optimisation passes take time growing faster than a function's
 # length, and separate files compile in parallel (`make -j`, and depsim's own builds). Small
 # models keep everything in model.c.
 OWN_FILE_CHARS = 50_000
+# A value a function stores into this many entries of one result or more is stored by a loop
+# over a table of those entries: a C compiler's dead-store and alias passes take time growing
+# about as the square of a function's stores into one array (a 100-body spatial chain's
+# coordinate scales, 1,200 stores of two values: 1.9 CPU s of gcc -O2 as single stores).
+REPEATED_STORES = 8
 _INTERFACE = {f.name: f for f in interface.FUNCTIONS + interface.TANGENTS}
 PROGRAM = "main.c"  # the program's entry point in the folder, left out of the library
 # The program's files in the folder (main.c and those only it uses), left out of the library.
@@ -104,6 +108,24 @@ class CFile:
     name: str
     functions: tuple[CFunction, ...]
     main: bool
+
+
+@dataclass(frozen=True)
+class CPrototype:
+    """A model function's declaration in model.h."""
+
+    name: str
+    summary: str
+    declaration: str
+
+
+@dataclass(frozen=True)
+class CHeader:
+    """What model.h holds, known before any function is lowered: the sizes (dep_model field,
+    value; the tangents flag last) and the functions' prototypes."""
+
+    sizes: tuple[tuple[str, int], ...]
+    prototypes: tuple[CPrototype, ...]
 
 
 @dataclass(frozen=True)
@@ -203,9 +225,38 @@ def c_function(f: FunctionView) -> CFunction:
                    else f"  /* [{s.entry.index[0]}][{s.entry.index[1]}] */")
         for s in f.statements
         if s.result < 0 or not (results[s.result].fill == "NAN" and s.entry.value == "NAN"))
+    statements = _gather_repeated(statements, f)
     declaration = interface.c_declaration(_INTERFACE[f.name], restrict=True)
     return CFunction(f.name, declaration, f.summary, tuple(unused), tuple(results), statements,
                      tuple(map(_kernel, f.kernels)))
+
+
+def _gather_repeated(statements: tuple[CStatement, ...], f: FunctionView
+                     ) -> tuple[CStatement, ...]:
+    """The stores of one value into REPEATED_STORES or more entries of one result replaced by
+    one loop over a table of the entries, where the first of them was (its value is defined
+    there; no statement reads a result, and a kernel's call writes none of these entries)."""
+    called = {(f.results[r].name, flat) for s in f.statements if s.call is not None
+              for r, flat in s.call.outputs}
+    groups: dict[tuple[str, str], list[int]] = {}
+    for k, s in enumerate(statements):
+        if s.result and not s.lines and (s.result, int(s.name)) not in called:
+            groups.setdefault((s.result, s.value), []).append(k)
+    loops = {}
+    for (result, value), places in groups.items():
+        if len(places) >= REPEATED_STORES:
+            loops[places[0]] = _store_loop(result, value, [statements[k].name for k in places])
+            loops.update((k, None) for k in places[1:])
+    return tuple(loops[k] if k in loops else s for k, s in enumerate(statements)
+                 if loops.get(k, s) is not None)
+
+
+def _store_loop(result: str, value: str, entries: list[str]) -> CStatement:
+    rows = [", ".join(entries[k:k + 16]) for k in range(0, len(entries), 16)]
+    lines = ([f"static const int at[{len(entries)}] = {{"] + [f"    {row}," for row in rows]
+             + ["};", f"for (int k = 0; k < {len(entries)}; ++k) {{",
+                f"    {result}[at[k]] = {value};", "}"])
+    return CStatement("", "", "", "", ("{",) + tuple(f"    {line}" for line in lines) + ("}",))
 
 
 _LITERALS = {"const char *const": c_string, "const double": c_double, "const int": str}
@@ -216,25 +267,69 @@ def _tables(m: ModuleView) -> tuple[CTable, ...]:
                  for t in m.tables)
 
 
-def c_view(view: ModuleView, runtime_files: tuple[str, ...]) -> CModuleView:
+def c_header(view: ModuleView) -> CHeader:
+    """model.h's content from the module's header (its functions need not be lowered)."""
+    sizes = tuple((field, value) for field, _, value in view.sizes) + (
+        (interface.TANGENT_FLAG, int(view.tangents)),)
+    functions = interface.FUNCTIONS + (interface.TANGENTS if view.tangents else ())
+    return CHeader(sizes, tuple(CPrototype(f.name, f.summary,
+                                           interface.c_declaration(f, restrict=True))
+                                for f in functions))
+
+
+class _Files:
+    """The model's functions packed into files as they are lowered, each file handed to
+    `put(name, text)` as soon as it is complete (model.h before them): a function longer
+    than OWN_FILE_CHARS in a file of its own, model_<name>.c; shorter ones gathered in
+    order until they are longer together, then written as model_<first>.c. Those left at
+    the end go into model.c with the tables and the `depsim_model` struct (all of a small
+    model's)."""
+
+    def __init__(self, put):
+        self.put = put
+        self.functions: list[CFunction] = []
+        self.files: list[CFile] = []  # the complete ones, in order
+        self.group: list[CFunction] = []
+
+    def add(self, header: ModuleView, f: FunctionView) -> None:
+        if not self.functions:
+            self.put("model.h", C_ENVIRONMENT.get_template("c/model.h.j2").render(
+                c=c_header(header), m=header))
+        function = c_function(f)
+        self.functions.append(function)
+        if function.length > OWN_FILE_CHARS:
+            self._close(header, (function,))
+            return
+        self.group.append(function)
+        if sum(g.length for g in self.group) > OWN_FILE_CHARS:
+            self._close(header, tuple(self.group))
+            self.group = []
+
+    def _close(self, header: ModuleView, functions: tuple[CFunction, ...]) -> None:
+        file = CFile(f"model_{functions[0].name}.c", functions, False)
+        self.files.append(file)
+        self.put(file.name, C_ENVIRONMENT.get_template("c/model.c.j2").render(
+            m=header, file=file))
+
+
+def c_view(view: ModuleView, runtime_files: tuple[str, ...], functions: tuple[CFunction, ...],
+           split: tuple[CFile, ...]) -> CModuleView:
     """The C target's view-model of a lowered module; `runtime_files`: the integrator's file
-    names in the folder (core_folder_files)."""
+    names in the folder (core_folder_files); `functions`: its functions' C views, `split`:
+    the files those not in model.c went into (_Files)."""
     m = view
-    # the sizes, then the flag saying whether the tangents are there (dep_model.tangents)
-    sizes = tuple((field, value) for field, _, value in m.sizes) + (
-        (interface.TANGENT_FLAG, int(m.tangents)),)
-    functions = tuple(c_function(f) for f in m.functions)
-    long = tuple(f for f in functions if f.length > OWN_FILE_CHARS)
-    files = (CFile("model.c", tuple(f for f in functions if f not in long), True),) + tuple(
-        CFile(f"model_{f.name}.c", (f,), False) for f in long)
+    apart = {f.name for file in split for f in file.functions}
+    files = (CFile("model.c", tuple(f for f in functions if f.name not in apart), True),) \
+        + split
     sources = tuple(f.name for f in files) + tuple(sorted(
         f for f in runtime_files if f.endswith(".c") and f not in PROGRAM_FILES))
     program = tuple(sorted(f for f in runtime_files if f in PROGRAM_FILES and f != PROGRAM
                            and f.endswith(".c")))
     headers = ("model.h",) + tuple(sorted(f for f in runtime_files
                                           if f.endswith((".h", ".inc"))))
-    return CModuleView(m, c_file_stem(m.model_name), sizes, _tables(m), functions, files,
-                       sources, tuple(f.name[:-2] + ".o" for f in files), program, headers)
+    return CModuleView(m, c_file_stem(m.model_name), c_header(m).sizes, _tables(m), functions,
+                       files, sources, tuple(f.name[:-2] + ".o" for f in files), program,
+                       headers)
 
 
 def c_sources(model: ir.Model, system: SymbolicSystem | None = None,
@@ -245,38 +340,55 @@ def c_sources(model: ir.Model, system: SymbolicSystem | None = None,
     return c_target(model, system, tangents)[1]
 
 
-def c_target(model: ir.Model, system: SymbolicSystem | None = None, tangents: bool = False
-             ) -> tuple[ModuleView, dict[str, str]]:
+def c_target(model: ir.Model, system: SymbolicSystem | None = None, tangents: bool = False,
+             put=None) -> tuple[ModuleView, dict[str, str]]:
     """The lowered module (its sizes, tables and identity, for targets that wrap the C model:
     codegen.fmu, which never asks for tangents) and the generated files of `c_sources`, from
-    one lowering."""
+    one lowering. `put(name, text)`, when given, is handed each file as soon as it is
+    complete: model.h first, then each model_<name>.c while the next functions are lowered,
+    then model.c and the Makefile."""
+    files: dict[str, str] = {}
+
+    def keep(name: str, text: str) -> None:
+        files[name] = text
+        if put is not None:
+            put(name, text)
+
+    packed = _Files(keep)
     view = lower_module(model, system or derive(model), CPrinter, DEPSIM_VERSION,
-                        tangents=tangents, kernels=True)
-    c = c_view(view, tuple(core_folder_files()))
-    files = {name: C_ENVIRONMENT.get_template(f"c/{name}.j2").render(
-                 c=c, m=view, cflags=" ".join(CFLAGS), model_cflags=" ".join(MODEL_EXTRA_CFLAGS))
-             for name in GENERATED_FILES if name != "model.c"}
-    template = C_ENVIRONMENT.get_template("c/model.c.j2")
-    files.update({f.name: template.render(c=c, m=view, file=f) for f in c.files})
+                        tangents=tangents, kernels=True, lowered=packed.add)
+    c = c_view(view, tuple(core_folder_files()), tuple(packed.functions), tuple(packed.files))
+    keep("model.c", C_ENVIRONMENT.get_template("c/model.c.j2").render(c=c, m=view,
+                                                                      file=c.files[0]))
+    keep("Makefile", C_ENVIRONMENT.get_template("c/Makefile.j2").render(
+        c=c, m=view, cflags=" ".join(CFLAGS), model_cflags=" ".join(MODEL_EXTRA_CFLAGS)))
     return view, files
 
 
 def compile_c(model: ir.Model, out_dir: Path, system: SymbolicSystem | None = None,
-              tangents: bool = False) -> Path:
+              tangents: bool = False, written=None) -> Path:
     """Write the C target's folder for `model` into `out_dir` (created if needed): generated
     model.c/model.h, the integrator's sources, a Makefile. Returns `out_dir`.
     `system`: an already derived SymbolicSystem of the model, to skip derivation.
     `tangents`: with the tangent functions (interface.TANGENTS; about twice the C to
     compile), which forward sensitivities need; the standalone program never uses them.
+    `written(path)`: told of each generated model*.c as soon as it is in the folder (with
+    the headers it includes), e.g. to compile it while the rest is generated
+    (depsim.runtime.binding.ModelPrebuild).
     Build with `make -C out_dir` (program `<name>`, library `lib<name>.so`) or
-    `depsim.runtime.clib.build_library(out_dir)`."""
+    `depsim.runtime.binding.build_model_library(out_dir)` (the library alone)."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     for name, source in core_folder_files().items():
         (out_dir / name).parent.mkdir(parents=True, exist_ok=True)
         _write_if_changed(out_dir / name, source.read_text(encoding="utf-8"))
-    for name, text in c_sources(model, system, tangents).items():
+
+    def put(name: str, text: str) -> None:
         _write_if_changed(out_dir / name, text)
+        if written is not None and name.endswith(".c"):
+            written(out_dir / name)
+
+    c_target(model, system, tangents, put)
     return out_dir
 
 

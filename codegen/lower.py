@@ -7,7 +7,7 @@ only their structurally non-zero entries (the arrays start as zeros)."""
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable
 
 import sympy
@@ -662,11 +662,15 @@ def _limit_tables(model: ir.Model) -> dict[str, tuple]:
 
 def lower_module(model: ir.Model, system: SymbolicSystem, printer: PrinterFactory,
                  depsim_version: str, ieee_printer: PrinterFactory | None = None,
-                 tangents: bool = False, kernels: bool = False) -> ModuleView:
+                 tangents: bool = False, kernels: bool = False,
+                 lowered: Callable[[ModuleView, FunctionView], None] | None = None
+                 ) -> ModuleView:
     """The whole module's view-model: header constants and every function (those of
     IEEE_FUNCTIONS printed by `ieee_printer` when the backend's own printer is not IEEE),
     with `tangents` also the tangent functions (interface.TANGENTS); with `kernels` the
-    system's repeated blocks as kernels (a backend that writes them: C)."""
+    system's repeated blocks as kernels (a backend that writes them: C). `lowered(header,
+    function)` is told of each function as soon as it is lowered, in order, with the module
+    so far (no functions): a backend may write a function's code while the next is lowered."""
     rows, cols = zip(*system.phi_q_pattern) if system.phi_q_pattern else ((), ())
     values = {
         "COORDINATES": system.coordinates, "PARAMETERS": tuple(p.name for p in model.params),
@@ -702,15 +706,19 @@ def lower_module(model: ir.Model, system: SymbolicSystem, printer: PrinterFactor
               "NP": len(model.params)}
     sizes = tuple((s.field, s.constant, counts.get(s.constant, len(values.get(s.constant, ()))))
                   for s in interface.SIZES)
-    return ModuleView(
+    header = ModuleView(
         model_name=model.name, description=model.description,
         source_file=model.source_file.replace("\\", "/").rsplit("/", 1)[-1],
         source_sha256=model.source_sha256, depsim_version=depsim_version,
         sizes=sizes, tables=tables,
         t_end=model.simulation.t_end, tol=model.simulation.tol, dt_out=model.simulation.dt_out,
-        functions=tuple(lower_function(system, spec, ieee_printer if ieee_printer is not None
-                                       and spec.name in IEEE_FUNCTIONS else printer,
-                                       shared if spec.blocks else None)
-                        for spec in function_specs(system, tangents, kernels)),
-        tangents=tangents,
+        functions=(), tangents=tangents,
     )
+    functions = []
+    for spec in function_specs(system, tangents, kernels):
+        functions.append(lower_function(system, spec, ieee_printer if ieee_printer is not None
+                                        and spec.name in IEEE_FUNCTIONS else printer,
+                                        shared if spec.blocks else None))
+        if lowered is not None:
+            lowered(header, functions[-1])
+    return replace(header, functions=tuple(functions))

@@ -11,6 +11,7 @@ One compile serves every run: a run only changes the parameter vector.
 
 from __future__ import annotations
 
+import concurrent.futures
 import dataclasses
 import functools
 import hashlib
@@ -73,10 +74,16 @@ class Model:
             raise UsageError(f"unknown target '{target}' (available: {', '.join(TARGETS)})")
         from depsim.runtime.core import core
 
-        core()  # the integrator: built once per cache; CBuildError without a C compiler
-        if out_dir is not None:
-            return Simulator(self, _generate(self.ir, target, Path(out_dir), tangents), target)
-        artifact, reused = self.generated_code(target, tangents)
+        # the integrator, built once per cache, beside the model's code being generated (its
+        # C compile and sympy's work each take one CPU); CBuildError without a C compiler
+        with concurrent.futures.ThreadPoolExecutor(1) as pool:
+            built = pool.submit(core)
+            if out_dir is not None:
+                module = _generate(self.ir, target, Path(out_dir), tangents)
+                built.result()
+                return Simulator(self, module, target)
+            artifact, reused = self.generated_code(target, tangents)
+            built.result()
         folder = artifact.parent if artifact.is_file() else artifact
         return Simulator(self, _load(target, artifact), target,
                          cached=folder if reused else None)
@@ -97,9 +104,7 @@ class Model:
         shutil.rmtree(building, ignore_errors=True)
         try:
             if target == "c":
-                from depsim.codegen import compile_c
-
-                artifact = compile_c(self.ir, building, tangents=tangents)
+                artifact = _compile_c(self.ir, building, tangents)
             else:
                 from depsim.codegen import compile_numpy
 
@@ -186,13 +191,26 @@ def _generate(model: ir.Model, target: str, directory: Path, tangents: bool = Fa
     """Derive and emit the model's code (with the tangent functions when `tangents`) into
     `directory` (not the cache); the module."""
     if target == "c":
-        from depsim.codegen import compile_c
         from depsim.runtime.binding import load_folder
 
-        return load_folder(compile_c(model, directory, tangents=tangents))
+        return load_folder(_compile_c(model, directory, tangents))
     from depsim.codegen import compile_numpy, load_generated
 
     return load_generated(compile_numpy(model, directory, tangents=tangents))
+
+
+def _compile_c(model: ir.Model, directory: Path, tangents: bool) -> Path:
+    """The model's C folder in `directory`, each generated file compiled as soon as it is
+    written (beside the lowering of the next: a large model's C compile takes about as
+    long), so that building its library afterwards only links."""
+    from depsim.codegen import compile_c
+    from depsim.runtime.binding import ModelPrebuild
+
+    prebuild = ModelPrebuild(directory)
+    try:
+        return compile_c(model, directory, tangents=tangents, written=prebuild)
+    finally:
+        prebuild.finish()
 
 
 def _load(target: str, path: Path):

@@ -22,9 +22,11 @@ progress check and `simulate` raises it.
 
 from __future__ import annotations
 
+import concurrent.futures
 import contextlib
 import importlib.util
 import math
+import os
 import threading
 from pathlib import Path
 from types import ModuleType
@@ -32,10 +34,12 @@ from types import ModuleType
 import numpy as np
 
 from . import interface
-from .core import MODEL_CFLAGS, build_shared_library, core_library_path, ffi
+from .core import (MODEL_CFLAGS, CBuildError, build_shared_library, compile_objects,
+                   core_library_path, ffi)
 
 MODEL_LIBRARY = "libdepsim_model.so"
 MODEL_SOURCE = "model.c"
+OBJECTS = "build/objects"  # a C target folder's compiled model files, by their keys
 
 
 def _text(value) -> str:
@@ -137,7 +141,33 @@ def build_model_library(folder, flags: tuple[str, ...] | None = None) -> Path:
         raise CBuildError(f"{folder} is not a depsim C target folder (no {MODEL_SOURCE})")
     sources = [source] + sorted(folder.glob("model_*.c"))
     return build_shared_library(sources, folder / "build", MODEL_LIBRARY, include=(folder,),
-                                flags=MODEL_CFLAGS if flags is None else tuple(flags))
+                                flags=MODEL_CFLAGS if flags is None else tuple(flags),
+                                objects=folder / OBJECTS)
+
+
+class ModelPrebuild:
+    """Compiles a C target folder's generated model files (`model*.c`) in the background as
+    they are written, into the objects `build_model_library` takes, while the rest of the
+    model is still being generated: a large model's C compile then runs beside its lowering
+    (`codegen.compile_c(..., written=prebuild)`, then `finish()`). The folder's headers must
+    be written before the first file. A failure is left for the build to report."""
+
+    def __init__(self, folder):
+        self.folder = Path(folder)
+        self._pool = concurrent.futures.ThreadPoolExecutor(os.cpu_count() or 1)
+        self._jobs: list[concurrent.futures.Future] = []
+
+    def __call__(self, source: Path) -> None:
+        self._jobs.append(self._pool.submit(
+            compile_objects, [Path(source)], self.folder / OBJECTS, MODEL_CFLAGS,
+            (self.folder,)))
+
+    def finish(self) -> None:
+        """Wait for every file handed over so far."""
+        self._pool.shutdown(wait=True)
+        for job in self._jobs:
+            if job.exception() is not None and not isinstance(job.exception(), CBuildError):
+                raise job.exception()
 
 
 def load_module(path) -> ModuleType:
@@ -328,4 +358,4 @@ def bind(module) -> CModule | NumpyModel:
 
 
 __all__ = ["CModule", "NumpyModel", "bind", "load_c_module", "load_folder",
-           "build_model_library", "MODEL_LIBRARY"]
+           "build_model_library", "ModelPrebuild", "MODEL_LIBRARY"]

@@ -119,37 +119,77 @@ def _compiler_identity(cc: tuple[str, ...]) -> str:
 
 
 def build_shared_library(sources: list[Path], target_dir: Path, name: str,
-                         flags: tuple[str, ...] = CFLAGS, include: tuple[Path, ...] = ()
-                         ) -> Path:
+                         flags: tuple[str, ...] = CFLAGS, include: tuple[Path, ...] = (),
+                         objects: Path | None = None) -> Path:
     """Compile `sources` into `target_dir/<key>/<name>` unless it is there already; the key
     hashes the sources and every header beside them, the compiler and the flags. Returns the
     library's path. The sources compile to objects in parallel (one compiler per CPU), then
-    link. The file is written under a temporary name and renamed, so concurrent builders
-    never load a partial library. Raises CBuildError."""
+    link; `objects`: a folder keeping the objects by their own keys (compile_objects), where
+    those compiled before are taken (else they go to a scratch folder). The file is written
+    under a temporary name and renamed, so concurrent builders never load a partial library.
+    Raises CBuildError."""
     cc = compiler()
     all_flags = tuple(flags) + SHARED_FLAGS
     digest = hashlib.sha256()
     for part in (_compiler_identity(cc), " ".join(all_flags)):
         digest.update(part.encode() + b"\0")
-    headers = {h for folder in {s.parent for s in sources} | set(include)
-               for pattern in ("*.h", "*.inc") for h in Path(folder).glob(pattern)}
-    for path in sorted(sources) + sorted(headers):
+    headers = _headers(sources, include)
+    for path in sorted(sources) + headers:
         digest.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")
     target = Path(target_dir) / digest.hexdigest()[:20] / name
     if target.exists():
         return target
     target.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(dir=target.parent) as scratch:
-        includes = [f"-I{folder}" for folder in include]
-        objects = [Path(scratch) / f"{k}_{source.stem}.o" for k, source in enumerate(sources)]
-        commands = [[*cc, *flags, "-fPIC", *includes, "-c", "-o", str(o), str(s)]
-                    for s, o in zip(sources, objects)]
-        commands.sort(key=lambda c: -Path(c[-1]).stat().st_size)  # the longest start first
-        run_compilers(commands, name)
+        built = compile_objects(sources, Path(scratch) if objects is None else objects, flags,
+                                include, name)
         partial = Path(scratch) / name
-        run_compilers([[*cc, *all_flags, "-o", str(partial), *map(str, objects), "-lm"]], name)
+        run_compilers([[*cc, *all_flags, "-o", str(partial), *map(str, built), "-lm"]], name)
         os.replace(partial, target)
     return target
+
+
+def _headers(sources: list[Path], include: tuple[Path, ...]) -> list[Path]:
+    """The headers a build of `sources` may read: those beside them and in `include`."""
+    return sorted({h for folder in {s.parent for s in sources} | set(include)
+                   for pattern in ("*.h", "*.inc") for h in Path(folder).glob(pattern)})
+
+
+def compile_objects(sources: list[Path], folder: Path, flags: tuple[str, ...] = CFLAGS,
+                    include: tuple[Path, ...] = (), what: str = "") -> list[Path]:
+    """Each source compiled (position-independent) into `folder/<key>.o` unless that is there
+    already, in parallel, the longest first; the key hashes the compiler, the flags, the
+    source and the headers beside it and in `include` (their contents, not where they are:
+    a folder renamed keeps its objects). Returns the objects in the order of `sources`.
+    Raises CBuildError (`what`: what was being built, else the sources' names)."""
+    cc = compiler()
+    common = hashlib.sha256()
+    for part in (_compiler_identity(cc), " ".join(flags)):
+        common.update(part.encode() + b"\0")
+    for path in _headers(sources, include):
+        common.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    objects, commands = [], []
+    for source in sources:
+        key = common.copy()
+        key.update(source.read_bytes())
+        target = folder / f"{source.stem}-{key.hexdigest()[:20]}.o"
+        objects.append(target)
+        if not target.exists():
+            partial = target.with_name(f".{target.name}.{os.getpid()}.{threading.get_ident()}")
+            commands.append(([*cc, *flags, "-fPIC", *[f"-I{f}" for f in include], "-c", "-o",
+                              str(partial), str(source)], partial, target))
+    commands.sort(key=lambda c: -Path(c[0][-1]).stat().st_size)  # the longest start first
+    try:
+        run_compilers([command for command, _, _ in commands], what or ", ".join(
+            Path(c[0][-1]).name for c in commands))
+        for _, partial, target in commands:
+            os.replace(partial, target)
+    finally:
+        for _, partial, _ in commands:
+            partial.unlink(missing_ok=True)
+    return objects
 
 
 def run_compilers(commands: list[list[str]], what: str, cwd: Path | None = None) -> None:
@@ -275,6 +315,7 @@ def core():
     return ffi().dlopen(str(core_library_path()))
 
 
-__all__ = ["CBuildError", "cache_root", "compiler", "build_shared_library", "run_compilers",
+__all__ = ["CBuildError", "cache_root", "compiler", "build_shared_library", "compile_objects",
+           "run_compilers",
            "core_files", "core_sources", "core_library_path", "ffi", "core", "SOURCE_DIR",
            "CFLAGS", "MODEL_CFLAGS", "MODEL_EXTRA_CFLAGS", "LAYERS", "PROGRAM_SOURCES", "FMU_SOURCES", "CORE_FOLDER"]

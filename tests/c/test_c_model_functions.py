@@ -59,10 +59,17 @@ def test_functions_match_numpy(built, function):
                                        err_msg=f"{built.case}: {function}")
 
 
+def generated_c(folder) -> str:
+    """The text of a C folder's generated model files (model.c and any model_<name>.c)."""
+    return "".join(path.read_text() for path in sorted(folder.glob("model*.c")))
+
+
 def test_model_compiles_under_strict_c99(built, tmp_path):
-    run = subprocess.run([*compiler(), *STRICT, "-c", str(built.folder / "model.c"),
-                          "-o", str(tmp_path / "model.o")], capture_output=True, text=True)
-    assert run.returncode == 0, run.stderr
+    for source in sorted(built.folder.glob("model*.c")):
+        run = subprocess.run([*compiler(), *STRICT, "-c", str(source),
+                              "-o", str(tmp_path / f"{source.stem}.o")],
+                             capture_output=True, text=True)
+        assert run.returncode == 0, run.stderr
 
 
 def test_a_chains_tree_is_placed_by_kernels(built_cases):
@@ -70,7 +77,7 @@ def test_a_chains_tree_is_placed_by_kernels(built_cases):
     is a kernel's call reading its parent's coordinates (rates) from the result, the bars
     placed in the tree's order though listed from the tip; the tangent reads the pose that
     tree_pose wrote (test_functions_match_numpy checks their values)."""
-    text = (built_cases("model:spatial_chain").folder / "model.c").read_text()
+    text = generated_c(built_cases("model:spatial_chain").folder)
     pose = text[text.index("void model_tree_pose("):text.index("void model_tree_tangent(")]
     tangent = text[text.index("void model_tree_tangent("):]
     tangent = tangent[:tangent.index("\n}\n")]
@@ -84,7 +91,7 @@ def test_a_chains_tree_is_placed_by_kernels(built_cases):
 def test_a_chains_system_state_adds_each_bodys_terms(built_cases):
     """The momenta and the angular momentum of spatial_chain.dep's five equal bars: each
     bar's terms a kernel's call adding them (test_functions_match_numpy checks the values)."""
-    text = (built_cases("model:spatial_chain").folder / "model.c").read_text()
+    text = generated_c(built_cases("model:spatial_chain").folder)
     state = text[text.index("void model_system_state("):]
     state = state[:state.index("\n}\n")]
     assert [line.strip() for line in state.splitlines() if "system_state_body_0(" in line] \

@@ -117,8 +117,9 @@ def test_runtime_compiles_warning_free(example_builds, tmp_path):
 @pytest.mark.parametrize("name", EXAMPLES)
 def test_models_compile_warning_free(example_builds, tmp_path, name):
     folder = example_builds(name).folder
-    run = cc(*STRICT, "-c", "model.c", "-o", tmp_path / "model.o", cwd=folder)
-    assert run.returncode == 0, run.stderr
+    for source in sorted(folder.glob("model*.c")):
+        run = cc(*STRICT, "-c", source.name, "-o", tmp_path / f"{source.stem}.o", cwd=folder)
+        assert run.returncode == 0, run.stderr
 
 
 @pytest.mark.parametrize("name", EXAMPLES)
@@ -296,3 +297,68 @@ def test_program_prints_numbers_as_python_does(made):
     rows = {line.split()[0]: line.split()[-1] for line in listing.splitlines()[1:]}
     for name, value in zip(built.c.PARAMETERS, built.c.PARAMETER_DEFAULTS):
         assert rows[name] == repr(value), name
+
+
+def test_short_functions_gathered_in_files_give_the_same_run(example_builds, tmp_path,
+                                                             monkeypatch):
+    """Short functions are gathered in order into files of about OWN_FILE_CHARS (each named
+    by its first function) when a model's code is long: every function is in exactly one
+    file, model.c keeps the tables and the struct, the folder builds warning-free, and the
+    library runs bit for bit as the one-file folder's."""
+    from depsim.codegen import c_emit
+    from depsim.runtime.binding import build_model_library, load_c_module
+    from depsim.runtime.interface import FUNCTION_NAMES
+
+    built = example_builds("slider_crank")
+    monkeypatch.setattr(c_emit, "OWN_FILE_CHARS", 1500)
+    folder = compile_c(built.model, tmp_path / "gathered")
+    defined = {}
+    for source in sorted(folder.glob("model*.c")):
+        names = re.findall(r"^void model_(\w+)\(", source.read_text(), flags=re.MULTILINE)
+        defined.update((name, source.name) for name in names)
+        if source.name != "model.c":
+            assert source.name == f"model_{names[0]}.c"
+        run = cc(*STRICT, "-c", source.name, "-o", tmp_path / f"{source.stem}.o", cwd=folder)
+        assert run.returncode == 0, f"{source.name}:\n{run.stderr}"
+    assert sorted(defined) == sorted(FUNCTION_NAMES)
+    gathered = [name for name in set(defined.values()) if name != "model.c"
+                and sum(f == name for f in defined.values()) > 1]
+    assert gathered, defined
+    assert "const dep_model depsim_model" in (folder / "model.c").read_text()
+    split = simulate(load_c_module(build_model_library(folder)), t_end=0.2)
+    np.testing.assert_array_equal(split.q, simulate(built.c, t_end=0.2).q)
+
+
+def test_a_value_stored_into_many_entries_is_a_loop(built_cases):
+    """The five equal bars of tests/codegen/models/spatial_chain.dep: each bar's mass stored
+    into its three translation entries of M is one loop over the 15 entries, not 15 stores
+    (test_c_model_functions checks the values against the NumPy module)."""
+    text = "".join(p.read_text() for p in
+                   sorted(built_cases("model:spatial_chain").folder.glob("model*.c")))
+    mass = text[text.index("void model_mass_matrix("):]
+    mass = mass[:mass.index("\n}\n")]
+    assert "static const int at[15] = {" in mass
+    assert "M[at[k]] = p[" in mass
+
+
+def test_files_compiled_while_generating_are_what_the_library_links(example_builds, tmp_path,
+                                                                     monkeypatch):
+    """Model.compile("c") compiles each generated model*.c as soon as it is written
+    (ModelPrebuild, beside the lowering of the next); the library is then linked from those
+    objects without compiling any file again."""
+    import depsim
+    from depsim.runtime import core
+    from depsim.runtime.binding import OBJECTS, build_model_library
+
+    folder = tmp_path / "c"
+    depsim.load(HERE.parents[1] / "examples" / "slider_crank.dep").compile("c", out_dir=folder)
+    objects = sorted(p.name.rsplit("-", 1)[0] for p in (folder / OBJECTS).glob("*.o"))
+    assert objects == sorted(p.stem for p in folder.glob("model*.c"))
+    commands = []
+    compile_all = core.run_compilers
+    monkeypatch.setattr(core, "run_compilers",
+                        lambda cmds, *a, **k: (commands.extend(cmds), compile_all(cmds, *a, **k)))
+    for library in (folder / "build").glob("*/libdepsim_model.so"):
+        library.unlink()
+    build_model_library(folder)
+    assert len(commands) == 1 and "-shared" in commands[0]  # the link alone
