@@ -680,6 +680,7 @@ def lower_module(model: ir.Model, system: SymbolicSystem, printer: PrinterFactor
         "CONSTRAINT_HINGES": system.constraint_hinges,
         "CONSTRAINT_SLIDERS": system.constraint_sliders,
         "PHI_Q_ROWS": tuple(rows), "PHI_Q_COLS": tuple(cols), "HINGES": system.hinge_names,
+        "HINGE_WRAPS": system.hinge_wraps,
         "HINGE_PROPERTIES": HINGE_PROPERTIES, "SLIDERS": system.slider_names,
         "OUTPUTS": system.output_names, "OUTPUT_UNITS": tuple(o.unit for o in model.outputs),
         "ENERGIES": system.energy_names, "DISSIPATORS": system.dissipator_names,

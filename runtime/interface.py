@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-ABI = 13  # DEP_MODEL_ABI: bumped whenever the dep_model struct changes
+ABI = 14  # DEP_MODEL_ABI: bumped whenever the dep_model struct changes
 
 VALUES = ("v", "vd", "q", "qd", "t", "p", "lam", "w")  # the arguments of the model's state
 # The direction of each value but t (same length): d<value>, along which a tangent
@@ -121,6 +121,10 @@ TABLES = (
     Table("hinge_names", "HINGES", "const char *const", "nh", ""),
     Table("hinge_property_names", "HINGE_PROPERTIES", "const char *const", "nhp",
           "columns of hinge_properties()"),
+    Table("hinge_wraps", "HINGE_WRAPS", "const int", "nh",
+          "1: the angle is measured within half a turn of the middle of its travel (a "
+          "spatial hinge, atan2) and the results read it, so a run stops where it turns "
+          "past that; 0: it is continuous (a planar hinge, a slider's entry) or unread"),
     Table("slider_names", "SLIDERS", "const char *const", "ns", ""),
     Table("output_names", "OUTPUTS", "const char *const", "nout", ""),
     Table("output_units", "OUTPUT_UNITS", "const char *const", "nout", ""),

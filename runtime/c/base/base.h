@@ -16,6 +16,7 @@
 #include "../include/depsim.h"
 
 #define DEP_EPS 2.220446049250313e-16 /* double machine epsilon */
+#define DEP_PI 3.14159265358979323846 /* pi */
 
 /* ---- arena.c: every allocation of a run, freed at once ----------------------------------- */
 

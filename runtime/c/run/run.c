@@ -108,6 +108,10 @@ static int setup(dep_run *run, const double *params, const dep_event *events, in
     run->friction_d = dep_doubles(arena, nh);
     run->friction_table = dep_doubles(arena, 2 * (size_t)nh);
     run->friction_move = dep_doubles(arena, ny);
+    run->turns = dep_doubles(arena, 4 * nh);
+    for (int i = 0; i < m->nh; ++i) {
+        run->n_wraps += m->hinge_wraps[i] != 0;
+    }
     run->normal = dep_doubles(arena, 4 * capacity + 6 * nq);
     double **vectors[] = {&run->y, &run->dy, &run->work};
     for (size_t i = 0; i < 3; ++i) {

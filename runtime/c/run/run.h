@@ -287,6 +287,8 @@ struct dep_run { /* typedef in depsim.h */
     dep_event_record *records;
     int n_records, records_capacity;
     double *run_values, *run_energy; /* nw, ne: dep_run_outputs' scratch */
+    int n_wraps;   /* hinges whose angle is measured within half a turn (hinge_wraps) */
+    double *turns; /* 4 nh: their angles and rates at a step's ends (steps.c, turned_past) */
     double t_stop;   /* the end of the current dep_advance: no step passes it */
     double h_next;   /* the step size to try next; 0: none yet (first_step) */
     int recording;   /* 1: outputs at the output times (dep_simulate); 0: dep_open's runs */

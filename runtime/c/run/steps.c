@@ -567,6 +567,45 @@ int dep_run_step(dep_run *run, double h, dep_outcome *outcome, dep_failure *fail
                     run->friction_predicted, outcome, failure);
 }
 
+/* A spatial hinge's angle is measured within half a turn of the middle of its travel (atan2;
+   dep_model.hinge_wraps): one that turns past that reads a whole turn off, and its spring,
+   latch and stops with it. An accepted step in which such a hinge's angle moved by more than
+   half a turn against what its rates at the ends say (the trapezoid rule, whose error is of
+   the step's third order) crossed there: the run stops with the hinge named, not with an
+   angle a turn off. */
+static int turned_past(dep_run *run, const dep_state *start, const dep_state *end)
+{
+    const dep_model *m = run->model;
+    if (run->n_wraps == 0) {
+        return DEP_OK;
+    }
+    double *a0 = run->turns, *a1 = a0 + m->nh, *r0 = a1 + m->nh, *r1 = r0 + m->nh;
+    m->hinge_angles(start->q, run->p, a0);
+    m->hinge_angles(end->q, run->p, a1);
+    m->hinge_rates(start->q, start->qd, run->p, r0);
+    m->hinge_rates(end->q, end->qd, run->p, r1);
+    double h = end->t - start->t;
+    for (int i = 0; i < m->nh; ++i) {
+        if (m->hinge_wraps[i] && fabs(a1[i] - a0[i] - 0.5 * h * (r0[i] + r1[i])) > DEP_PI) {
+            char what[400];
+            const double deg = 180.0 / DEP_PI;
+            snprintf(what, sizeof what, "hinge %s turned more than half a turn from the middle "
+                     "of its travel (about %.4g deg): its angle, measured within half a turn "
+                     "of that, went from %.6g to %.6g deg in the step from t = %.9g s",
+                     m->hinge_names[i], 0.5 * (a0[i] + a1[i]) * deg, a0[i] * deg, a1[i] * deg,
+                     start->t);
+            return dep_solver_error(run->error, 1, end->t, "hinge angle", NULL,
+                                    m->hinge_names[i], 0, 0.0, what,
+                                    "a spatial hinge is measured about the middle of its "
+                                    "travel: between its initial angle and its latch, else "
+                                    "between its stops, else about its initial angle; give "
+                                    "it a latch or stops that bound where it turns (within "
+                                    "half a turn of their middle)");
+        }
+    }
+    return DEP_OK;
+}
+
 /* One accepted step from run->state into run->outcome; *h: in the size to try, out the next. */
 int dep_run_advance(dep_run *run, double *h)
 {
@@ -605,6 +644,10 @@ int dep_run_advance(dep_run *run, double *h)
               run->outcome.reports[1].iterations, run->outcome.reports[2].iterations,
               run->outcome.integrations, accepted ? "accepted" : "rejected");
         if (accepted) {
+            status = turned_past(run, &run->state, &run->outcome.state);
+            if (status != DEP_OK) {
+                return status;
+            }
             run->force_steps += run->stepper.by_force;
             run->by_force = run->by_force_next;
             add_friction_move(run);

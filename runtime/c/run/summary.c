@@ -12,7 +12,7 @@
 #include "run.h"
 
 #define EVENTS_SHOWN 20
-#define DEGREES (180.0 / 3.141592653589793)
+#define DEGREES (180.0 / DEP_PI)
 
 /* ---- event data ----------------------------------------------------------------------------- */
 
@@ -320,7 +320,7 @@ static void assembly_line(const dep_model *m, const dep_result *r, text *out)
             }
             int angle = angle_value(m, d->member);
             put(out, "%s %s = %.6g %s", first ? "" : ",", d->member,
-                angle ? d->number * 180.0 / 3.14159265358979323846 : d->number,
+                angle ? d->number * 180.0 / DEP_PI : d->number,
                 angle ? "deg" : "m");
             first = 0;
         }

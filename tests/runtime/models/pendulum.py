@@ -30,6 +30,7 @@ PHI_Q_ROWS = (0, 0, 1, 1)
 PHI_Q_COLS = (0, 2, 1, 2)
 HINGE_PROPERTIES = attributes.HINGE_PROPERTIES
 HINGES = ("pivot",)
+HINGE_WRAPS = (0,)
 SLIDERS = ()
 OUTPUTS = ("theta", "omega", "tip_x", "tip_y")
 OUTPUT_UNITS = ("rad", "rad/s", "m", "m")

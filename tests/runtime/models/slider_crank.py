@@ -35,6 +35,7 @@ PHI_Q_ROWS = (0, 0, 1, 1, 2, 2, 2, 2, 3, 3, 3, 3, 4, 4, 4, 5, 5, 5, 6, 7)
 PHI_Q_COLS = (0, 2, 1, 2, 0, 2, 3, 5, 1, 2, 4, 5, 3, 5, 6, 4, 5, 7, 7, 8)
 HINGE_PROPERTIES = attributes.HINGE_PROPERTIES
 HINGES = ("crank_pin", "wrist", "gudgeon")
+HINGE_WRAPS = (0, 0, 0)
 SLIDERS = ("guide",)
 OUTPUTS = ("crank_angle", "piston_x", "rod_angle")
 OUTPUT_UNITS = ("rad", "m", "rad")
