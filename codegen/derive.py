@@ -296,7 +296,6 @@ def derive(model: ir.Model) -> SymbolicSystem:
             + (("system_state", sum_blocks(system_state, [
                 (kin.body_symbols(i), [rate_of[s] for s in kin.body_symbols(i)])
                 for i in range(len(model.bodies))])),)
-    outputs = column(_output(o, scope) for o in model.outputs)
     system = SymbolicSystem(
         name=model.name,
         constants=tuple(((symbol, value),) for symbol, value in constants.items()),
@@ -314,14 +313,14 @@ def derive(model: ir.Model) -> SymbolicSystem:
         hinge_names=tuple(h.name for h in model.hinges)
         + tuple(model.sliders[i].name for i in sliding),
         slider_names=tuple(s.name for s in model.sliders),
-        hinge_wraps=_hinge_wraps(model, thetas, scope) + tuple(0 for _ in sliding),
+        hinge_wraps=_hinge_wraps(model, thetas) + tuple(0 for _ in sliding),
         hinge_angles=angles, hinge_rates=rates,
         hinge_jacobian=hinge_jacobian, hinge_jacobian_pattern=hinge_jacobian_pattern,
         hinge_gamma=hinge_gamma,
         hinge_properties=_hinge_properties(model, kin),
         coordinate_scales=scales,
         output_names=tuple(o.name for o in model.outputs),
-        outputs=outputs, w=w,
+        outputs=column(_output(o, scope) for o in model.outputs), w=w,
         system_state=system_state,
         system_state_names=state_names,
         run_value_names=run_values,
@@ -444,16 +443,16 @@ def _hinge_properties(model: ir.Model, kin: Kinematics) -> ImmutableMatrix:
         for joint in joints for name in HINGE_PROPERTIES])
 
 
-def _hinge_wraps(model: ir.Model, thetas, scope: OutputScope) -> tuple[int, ...]:
+def _hinge_wraps(model: ir.Model, thetas) -> tuple[int, ...]:
     """Per hinge, 1 where its angle is measured within half a turn of the middle of its
-    travel (atan2: a spatial hinge) and the results read it: a load (a spring, a cable), a
-    latch or stops (the integrator's), or an output; else 0 (a planar hinge is continuous; a
-    spatial one nothing reads may turn freely)."""
+    travel (atan2: a spatial hinge) and the motion depends on it: a load (a spring, a
+    cable) or the integrator's latch or stops; else 0 (a planar hinge is continuous; a
+    spatial crank, shaft or wheel that nothing loads by its angle turns freely, its angle
+    read within half a turn)."""
     if not model.spatial:
         return tuple(0 for _ in model.hinges)
-    read = set(thetas.found) | scope.angles_read
-    return tuple(int(i in read or any(x is not None for x in (h.latch, h.stop_min, h.stop_max)))
-                 for i, h in enumerate(model.hinges))
+    return tuple(int(i in thetas.found or any(x is not None for x in (
+        h.latch, h.stop_min, h.stop_max))) for i, h in enumerate(model.hinges))
 
 
 class _Angles:

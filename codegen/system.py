@@ -96,7 +96,6 @@ class OutputScope:
         self.lam, self.w, self.rows = lam, w, rows
         self.energies, self.dissipators, self.springs = energies, dissipators, springs
         self._modes = None
-        self.angles_read: set[int] = set()  # the hinges whose angle (not rate) an output reads
 
     # the state: as Kinematics has it
     def body_coord(self, body, coord):
@@ -106,8 +105,6 @@ class OutputScope:
         return self.kin.point_coord(member, point, axis)
 
     def hinge_angle(self, hinge, rate):
-        if not rate:
-            self.angles_read.add(hinge)
         return self.kin.hinge_angle(hinge, rate)
 
     def slider_position(self, slider, rate):

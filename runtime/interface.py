@@ -123,8 +123,9 @@ TABLES = (
           "columns of hinge_properties()"),
     Table("hinge_wraps", "HINGE_WRAPS", "const int", "nh",
           "1: the angle is measured within half a turn of the middle of its travel (a "
-          "spatial hinge, atan2) and the results read it, so a run stops where it turns "
-          "past that; 0: it is continuous (a planar hinge, a slider's entry) or unread"),
+          "spatial hinge, atan2) and the motion depends on it, so a run stops where it "
+          "turns past that; 0: it is continuous (a planar hinge, a slider's entry) or "
+          "nothing loads by it"),
     Table("slider_names", "SLIDERS", "const char *const", "ns", ""),
     Table("output_names", "OUTPUTS", "const char *const", "nout", ""),
     Table("output_units", "OUTPUT_UNITS", "const char *const", "nout", ""),

@@ -31,6 +31,7 @@ def drifting_pin(pendulum, start=0.1, rate=1e-2):
 
     return variant(pendulum, NC=3, CONSTRAINTS=("pivot.x", "pivot.y", "pin.x"),
                    CONSTRAINT_JOINTS=("pivot", "pivot", "pin"), HINGES=("pivot", "pin"),
+                   HINGE_WRAPS=(0, 0),
                    CONSTRAINT_HINGES=(0, 0, 1), CONSTRAINT_SLIDERS=(-1, -1, -1),
                    PHI_Q_ROWS=(0, 0, 1, 1, 2, 2), PHI_Q_COLS=(0, 2, 1, 2, 0, 2), phi=phi,
                    phi_q=phi_q, phi_q_transpose_times=phi_q_transpose_times, gamma=gamma,

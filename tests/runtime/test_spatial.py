@@ -447,35 +447,38 @@ output tip_z = b.b.z
 
 
 @pytest.mark.parametrize("target", ["c", "numpy"])
-def test_a_hinge_turned_past_half_a_turn_that_the_results_read_stops_the_run(tmp_path,
-                                                                             target):
+def test_a_loaded_hinge_turned_past_half_a_turn_stops_the_run(tmp_path, target):
     """A spatial hinge's angle is measured within half a turn of the middle of its travel:
-    where a spring, a latch, stops or an output reads it, turning past that stops the run
-    with the hinge named (the angle would read a whole turn off), at the step where it does
-    (2 rad/s from 0: t = pi / 2 s)."""
+    where the motion depends on it (here a spring; also a cable, a latch, stops), turning
+    past that stops the run with the hinge named (its torque would follow an angle a whole
+    turn off), at the step where it does (2 rad/s from 0: t = pi / 2 s), no result kept."""
     from depsim.runtime.errors import SolverError
 
-    for attributes, outputs in (("", "output angle = h\n"),
-                                ("; stiffness = 0.001 N*m/rad; preload = 0.004 N*m", "")):
-        sim = compile_text(tmp_path, f"spin{len(outputs)}",
-                           SPIN.format(attributes=attributes, outputs=outputs), target)
-        with pytest.raises(SolverError) as failure:
-            sim.run()
-        assert failure.value.joint == "h" and failure.value.stage == "hinge angle"
-        assert math.pi / 2 - 0.1 < failure.value.t < math.pi / 2 + 0.2  # a step past it
-        assert "turned more than half a turn from the middle of its travel" in str(failure.value)
-        assert "latch or stops" in str(failure.value)
+    sim = compile_text(tmp_path, "spinspring", SPIN.format(
+        attributes="; stiffness = 0.001 N*m/rad; preload = 0.004 N*m", outputs=""), target)
+    assert sim.module.HINGE_WRAPS == (1,)
+    with pytest.raises(SolverError) as failure:
+        sim.run()
+    assert failure.value.joint == "h" and failure.value.stage == "hinge angle"
+    assert math.pi / 2 - 0.1 < failure.value.t < math.pi / 2 + 0.2  # a step past it
+    assert "turned more than half a turn from the middle of its travel" in str(failure.value)
+    assert "latch or stops" in str(failure.value)
 
 
-def test_a_hinge_nothing_reads_turns_freely(tmp_path):
-    """The same bar with no load, latch, stop or output on its angle turns on through four
-    turns at its constant rate: the tip is the rotation about the axis of its start
-    (measured 5.6e-8 m over the 8 s at tol 1e-9, a phase error of a few tol a turn)."""
-    sim = compile_text(tmp_path, "spinfree", SPIN.format(attributes="", outputs=""))
+def test_a_hinge_nothing_loads_turns_freely(tmp_path):
+    """The same bar with no load, latch or stop on its angle (a crank, a shaft, a wheel)
+    turns on through four turns at its constant rate: the tip is the rotation about the axis
+    of its start (measured 5.6e-8 m over the 8 s at tol 1e-9, a phase error of a few tol a
+    turn), and its angle output is read within half a turn of its start."""
+    sim = compile_text(tmp_path, "spinfree", SPIN.format(attributes="",
+                                                         outputs="output angle = h\n"))
+    assert sim.module.HINGE_WRAPS == (0,)
     result = sim.run()
     axis = np.array([0.0, 0.3, 1.0]) / math.hypot(0.3, 1.0)
-    tip = np.array([[*(rot(axis, 2.0 * t) @ np.array([1.0, 0.0, 0.0]))] for t in result.times])
+    tip = np.array([rot(axis, 2.0 * t) @ np.array([1.0, 0.0, 0.0]) for t in result.times])
     got = np.column_stack([result.output(f"tip_{a}") for a in "xyz"])
     assert np.max(np.abs(got - tip)) < 1e-6
     assert result.times[-1] == pytest.approx(8.0)
-    assert sim.module.HINGE_WRAPS == (0,)
+    wrapped = np.angle(np.exp(2j * result.times))
+    assert np.max(np.abs(np.angle(np.exp(1j * (result.output("angle") - wrapped))))) < 1e-6
+    assert np.all(np.abs(result.output("angle")) <= math.pi + 1e-9)

@@ -96,7 +96,7 @@ typedef struct dep_model {
     const int *phi_q_cols; /* nnz */
     const char *const *hinge_names; /* nh */
     const char *const *hinge_property_names; /* nhp, columns of hinge_properties() */
-    const int *hinge_wraps; /* nh, 1: the angle is measured within half a turn of the middle of its travel (a spatial hinge, atan2) and the results read it, so a run stops where it turns past that; 0: it is continuous (a planar hinge, a slider's entry) or unread */
+    const int *hinge_wraps; /* nh, 1: the angle is measured within half a turn of the middle of its travel (a spatial hinge, atan2) and the motion depends on it, so a run stops where it turns past that; 0: it is continuous (a planar hinge, a slider's entry) or nothing loads by it */
     const char *const *slider_names; /* ns */
     const char *const *output_names; /* nout */
     const char *const *output_units; /* nout */

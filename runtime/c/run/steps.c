@@ -567,12 +567,12 @@ int dep_run_step(dep_run *run, double h, dep_outcome *outcome, dep_failure *fail
                     run->friction_predicted, outcome, failure);
 }
 
-/* A spatial hinge's angle is measured within half a turn of the middle of its travel (atan2;
-   dep_model.hinge_wraps): one that turns past that reads a whole turn off, and its spring,
-   latch and stops with it. An accepted step in which such a hinge's angle moved by more than
-   half a turn against what its rates at the ends say (the trapezoid rule, whose error is of
-   the step's third order) crossed there: the run stops with the hinge named, not with an
-   angle a turn off. */
+/* A spatial hinge's angle is measured within half a turn of the middle of its travel
+   (atan2); past that it reads a whole turn off. For a hinge whose spring, cable, latch or
+   stops read it (dep_model.hinge_wraps), an accepted step in which its angle moved by more
+   than half a turn against what its rates at the ends say (the trapezoid rule, whose error
+   is of the step's third order) crossed there: the run stops with the hinge named, not with
+   a torque or an event a turn off. */
 static int turned_past(dep_run *run, const dep_state *start, const dep_state *end)
 {
     const dep_model *m = run->model;
