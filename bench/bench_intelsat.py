@@ -17,6 +17,10 @@ are medians over the rounds:
 * rows: t, theta1..4 every 0.05 s (1,401 rows; depsim samples its record at the rows too);
 * the fixed cost: a run to t = 1 ms (the process, its start and end, the model's setup).
 
+Then, at equal accuracy against the converged reference: depsim at the loosest
+tolerance on a ladder of multiples of the baseline's whose error is no larger than the
+baseline's, both without rows, timed the same way.
+
 "ns per evaluation" is the run without rows, less the fixed cost, over the right-side
 evaluations: the whole method's time per evaluation, by wall time and by CPU time (user +
 system: what the process itself used, steadier while other processes share the cores). The
@@ -341,6 +345,58 @@ def compare(hand: Path, program: Path, timed_program: Path | None, tol: float, r
         profile(depsim_cg, d["evaluations"], d["steps"] + d["rejected"])
 
 
+# depsim's tolerances tried for the comparison at equal accuracy, as multiples of the
+# baseline's tol.
+LADDER = (1.0, 1.5, 2.0, 3.0, 5.0, 7.0, 10.0, 15.0, 20.0, 30.0)
+
+
+def equal_accuracy(hand: Path, program: Path, tol: float, repeat: int, folder: Path,
+                   reference: np.ndarray) -> None:
+    """depsim at the loosest tol on LADDER x tol whose error is within the baseline's at tol,
+    against the baseline at tol: the comparison at equal or better accuracy. The
+    errors (rows every 0.05 s) are deterministic; the times are medians of interleaved whole
+    processes without rows."""
+    done = subprocess.run(command(hand, tol, folder / "eq_base.csv"), capture_output=True,
+                          text=True, check=True)
+    base = counts(done)
+    base["error"] = error(folder / "eq_base.csv", reference)
+    print(f"\nAt equal accuracy: the baseline at tol {tol:g} (error {base['error']:.2e} rad) "
+          f"against depsim at the loosest tol whose error is no larger")
+    print(f"{'depsim tol':>11} {'error rad':>10} {'steps':>6} {'evaluations':>12}")
+    chosen = None
+    for factor in LADDER:
+        t = tol * factor
+        done = subprocess.run(command(program, t, folder / "eq_depsim.csv"),
+                              capture_output=True, text=True, check=True)
+        found = counts(done)
+        found["error"] = error(folder / "eq_depsim.csv", reference)
+        meets = found["error"] <= base["error"]
+        print(f"{t:>11.3g} {found['error']:>10.2e} {found['steps']:>6} "
+              f"{found['evaluations']:>12} {'within' if meets else 'larger'}")
+        if meets:
+            chosen = (t, found)
+    if chosen is None:
+        print("no tol on the ladder is as accurate as the baseline: no comparison")
+        return
+    t, found = chosen
+    jobs = [("depsim", command(program, t, folder / "timed.csv", dt_out=T_END)),
+            ("baseline", command(hand, tol, folder / "timed.csv", dt_out=T_END))]
+    walls, cpus = {n: [] for n, _ in jobs}, {n: [] for n, _ in jobs}
+    for r in range(repeat):
+        for name, cmd in jobs[r % 2:] + jobs[:r % 2]:
+            wall, used, _ = timed(cmd)
+            walls[name].append(wall)
+            cpus[name].append(used)
+    w = {n: 1e3 * statistics.median(v) for n, v in walls.items()}
+    c = {n: 1e3 * statistics.median(v) for n, v in cpus.items()}
+    print(f"depsim at tol {t:g} ({found['steps']} steps, {found['evaluations']} evaluations, "
+          f"{found['error']:.2e} rad) against the baseline at {tol:g} ({base['steps']} steps, "
+          f"{base['evaluations']} evaluations, {base['error']:.2e} rad), no rows, {repeat} "
+          f"rounds: wall {w['depsim']:.2f} / {w['baseline']:.2f} ms = "
+          f"{w['depsim'] / w['baseline']:.2f}x, CPU {c['depsim']:.2f} / {c['baseline']:.2f} ms "
+          f"= {c['depsim'] / c['baseline']:.2f}x ({load()})")
+
+
 def study(runs: int, folder: Path) -> None:
     cmd = [*DEPSIM, "sweep", str(ROOT / "examples" / "intelsat5.dep"), "--runs", str(runs),
            "--seed", "1", "--t-end", "70", "-o", str(folder / "study.nc")]
@@ -370,6 +426,7 @@ def main(argv=None) -> int:
         for tol in args.tol or [1e-8]:
             compare(hand, program, timed_program, tol, args.repeat, folder, reference,
                     args.profile)
+            equal_accuracy(hand, program, tol, args.repeat, folder, reference)
         if args.runs:
             study(args.runs, folder)
     return 0
