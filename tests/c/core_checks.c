@@ -17,6 +17,8 @@
  *                                qdd) at t_prior for one coordinate, then N times in [t0, t1];
  *                                prints q, qd on the step interpolant at each time, with the
  *                                prior point and without it
+ *   core_checks interpolant N W  the same with the accelerations W (three of 0 or 1: at the
+ *                                prior point, the start, the end) marked weak by a 1
  *   core_checks law F S          reads rates (rad/s) from stdin; prints the regularised
  *                                Coulomb law's torque and slope at each, for a sliding hinge
  *                                of friction F (N m) and slip rate S (rad/s)
@@ -303,20 +305,22 @@ static int project(int nq, int nc)
 
 /* ---- the step interpolant ------------------------------------------------------------------ */
 
-static int interpolant(int n)
+static int interpolant(int n, const char *weak)
 {
-    double *given = read_numbers(3 + 8 + n), data[12 + 1], with[2], without[2];
+    double *given = read_numbers(3 + 8 + n), data[DEP_INTERPOLANT_ROWS + DEP_INTERPOLANT_TAIL];
+    double with[2], without[2];
     if (given == NULL) {
         return fail("bad input");
     }
     double t_prior = given[0], t0 = given[1], h = given[2] - given[1];
     const double *v = given + 3, *times = given + 11;
-    dep_interpolant_data(h, &v[0], &v[1], &v[2], &v[3], &v[4], &v[5], 1, data);
+    dep_interpolant_data(h, &v[0], &v[1], &v[2], weak[1] == '1', &v[3], &v[4], &v[5],
+                         weak[2] == '1', 1, data);
     for (int k = 0; k < n; ++k) {
         dep_interpolate(data, t0, h, 1, times[k], &without[0], &without[1]);
-        dep_interpolant_prior(data, 1, h, t0 - t_prior, &v[6], &v[7]);
+        dep_interpolant_prior(data, 1, h, t0 - t_prior, &v[6], &v[7], weak[0] == '1');
         dep_interpolate(data, t0, h, 1, times[k], &with[0], &with[1]);
-        data[12] = 0.0;
+        data[DEP_INTERPOLANT_ROWS] = 0.0;
         printf("%.17g %.17g %.17g %.17g\n", with[0], with[1], without[0], without[1]);
     }
     free(given);
@@ -409,9 +413,10 @@ int main(int argc, char **argv)
     if (argc == 4 && strcmp(argv[1], "law") == 0) {
         return law(atof(argv[2]), atof(argv[3]));
     }
-    if (argc == 3 && strcmp(argv[1], "interpolant") == 0) {
-        return interpolant(atoi(argv[2]));
+    if ((argc == 3 || (argc == 4 && strlen(argv[3]) == 3))
+        && strcmp(argv[1], "interpolant") == 0) {
+        return interpolant(atoi(argv[2]), argc == 4 ? argv[3] : "000");
     }
     return fail("usage: core_checks iteration H | fixed N T [TOL] | fixed_implicit N T [TOL] | "
-                "predictor N T TOL | project NQ NC | law F S | interpolant N | rows T");
+                "predictor N T TOL | project NQ NC | law F S | interpolant N [WEAK] | rows T");
 }

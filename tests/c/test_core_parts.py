@@ -198,6 +198,40 @@ def test_step_interpolant_is_exact_for_quintics_with_the_prior_point(checks):
     assert np.allclose(out[[0, -1], 3], rate(times[[0, -1]]), rtol=0, atol=1e-13)
 
 
+@pytest.mark.parametrize("weak", ["001", "010", "100", "011", "111"])
+def test_a_weak_acceleration_is_left_out_of_the_velocity_interpolant(checks, weak):
+    """An acceleration marked weak (from an S near singular: docs/method.md, 5) is not
+    interpolated: qd is the Hermite interpolant of the values and the other accelerations,
+    one degree lower per weak one, and reproduces a polynomial of that degree exactly whatever
+    the weak accelerations hold; q (the quintic) is as before."""
+    rng = np.random.default_rng(7)
+    t_prior, t0, t1 = 0.1, 0.4, 0.9
+    times = np.linspace(t0, t1, 11)
+    taken = [c == "0" for c in weak]  # prior, start, end
+    for with_prior in (True, False):
+        conditions = (3 if with_prior else 2) + sum(taken[0 if with_prior else 1:])
+        rate = np.polynomial.Polynomial(rng.normal(size=conditions))  # degree conditions - 1
+        position = np.polynomial.Polynomial(rng.normal(size=6))
+        garbage = rng.normal(size=3) * 1e3  # what the weak accelerations hold
+        qdd = [rate.deriv()(t) if use else g for t, use, g in zip((t_prior, t0, t1), taken,
+                                                                  garbage)]
+        values = [position(t0), rate(t0), qdd[1], position(t1), rate(t1), qdd[2],
+                  rate(t_prior), qdd[0]]
+        stdin = " ".join(repr(float(v)) for v in [t_prior, t0, t1, *values, *times])
+        out = np.array([[float(v) for v in line.split()]
+                        for line in checks("pendulum")("interpolant", len(times), weak,
+                                                       stdin=stdin).splitlines()])
+        column = 1 if with_prior else 3
+        assert np.allclose(out[:, column], rate(times), rtol=0, atol=1e-11)
+    values_q = [position(t0), position.deriv()(t0), position.deriv(2)(t0), position(t1),
+                position.deriv()(t1), position.deriv(2)(t1), 0.0, 0.0]
+    stdin_q = " ".join(repr(float(v)) for v in [t_prior, t0, t1, *values_q, *times])
+    out_q = np.array([[float(v) for v in line.split()]
+                      for line in checks("pendulum")("interpolant", len(times), weak,
+                                                     stdin=stdin_q).splitlines()])
+    assert np.allclose(out_q[:, 0], position(times), rtol=0, atol=1e-13)
+
+
 def test_friction_law_is_tanh_to_round_off_and_its_slope_its_derivative(checks):
     """The regularised Coulomb law -F tanh(rate / S) (computed as 1 - 2 / (exp(2 |u|) + 1) with
     u's sign) within a few units of round-off of F against numpy's tanh, odd, bounded by F,

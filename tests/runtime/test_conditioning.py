@@ -164,6 +164,21 @@ def test_a_parallelogram_passes_its_singular_position(build):
     assert np.max(np.abs(result.output("rate") - rate)) < 100 * tol * 5  # |omega| <= 5 rad/s
 
 
+def test_the_rates_near_a_singular_position_leave_out_its_weak_accelerations(build):
+    """At tol 1e-10 a step ending within a few hundredths of a degree of the line solves its
+    acceleration at an S whose smallest pivot is below 1e-7: qdd is off by up to 1e6 tol
+    there, and the velocity interpolant through it put 582 tol of error into the output times
+    inside the step (t = 3.56 s). Left out (docs/method.md, 5), the rates keep the step ends'
+    own error near the line, the passes' limit over the weak rows' strength: 85 tol at most
+    over 0-4 s (measured), at 1.2 deg from the line."""
+    tol = 1e-10
+    result = build(PARALLELOGRAM, "parallelogram").run(tol=tol, t_end=4.0)
+    angle, rate = one_angle(result.times, 10, 2 / 3 + 1, 2 * 9.81)
+    assert np.count_nonzero(np.diff(np.sign(angle)) != 0) >= 3
+    assert np.max(np.abs(result.output("crank") - angle)) < 10 * tol
+    assert np.max(np.abs(result.output("rate") - rate)) < 40 * tol * 5  # |omega| <= 5 rad/s
+
+
 def parallelogram_chain(n: int, t_end: float = 5.0) -> str:
     """n parallelograms sharing their cranks: cranks c0..cn pinned to the ground at x = 0..n,
     couplers k1..kn joining the tips of cranks i-1 and i; all links 1 m, 1 kg."""

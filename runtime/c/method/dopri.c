@@ -164,14 +164,16 @@ void dep_dense_components(const dep_rk_step *rk, double t, int first, int count,
     }
 }
 
-/* The step interpolant's data, 12 x nq + 1: the quintic's rows (q0, h qd0, h^2 qdd0, q1, h qd1,
-   h^2 qdd1), the velocity interpolant's (qd0, h qdd0, qd1, h qdd1, qd_prior, h qdd_prior) and
-   h_prior / h, 0 until dep_interpolant_prior gives the accepted point before the step. */
+/* The step interpolant's data, DEP_INTERPOLANT_ROWS x nq + DEP_INTERPOLANT_TAIL: the quintic's
+   rows (q0, h qd0, h^2 qdd0, q1, h qd1, h^2 qdd1), the velocity interpolant's (qd0, h qdd0,
+   qd1, h qdd1, qd_prior, h qdd_prior), then h_prior / h (0 until dep_interpolant_prior gives
+   the accepted point before the step) and whether the velocity interpolant takes the
+   accelerations at the prior point, the start and the end (1) or leaves a weak one out (0). */
 void dep_interpolant_data(double h, const double *q0, const double *qd0, const double *qdd0,
-                          const double *q1, const double *qd1, const double *qdd1, int nq,
-                          double *data)
+                          int qdd0_weak, const double *q1, const double *qd1,
+                          const double *qdd1, int qdd1_weak, int nq, double *data)
 {
-    double h2 = h * h;
+    double h2 = h * h, *tail = data + DEP_INTERPOLANT_ROWS * nq;
     for (int j = 0; j < nq; ++j) {
         data[j] = q0[j];
         data[nq + j] = h * qd0[j];
@@ -184,59 +186,91 @@ void dep_interpolant_data(double h, const double *q0, const double *qd0, const d
         data[8 * nq + j] = qd1[j];
         data[9 * nq + j] = h * qdd1[j];
     }
-    data[12 * nq] = 0.0;
+    tail[0] = 0.0;
+    tail[1] = 0.0;
+    tail[2] = !qdd0_weak;
+    tail[3] = !qdd1_weak;
 }
 
 /* Adds the accepted point before the step (h_prior before its start) to the velocity
    interpolant. */
 void dep_interpolant_prior(double *data, int nq, double h, double h_prior, const double *qd,
-                           const double *qdd)
+                           const double *qdd, int qdd_weak)
 {
+    double *tail = data + DEP_INTERPOLANT_ROWS * nq;
     for (int j = 0; j < nq; ++j) {
         data[10 * nq + j] = qd[j];
         data[11 * nq + j] = h * qdd[j];
     }
-    data[12 * nq] = h_prior / h;
+    tail[0] = h_prior / h;
+    tail[1] = !qdd_weak;
 }
 
-/* qd at x on the quintic Hermite interpolant of (qd, h qdd) = (v, d) at x = -r, 0 and 1
-   (Newton's form on the doubled nodes). */
-static double rate_through_three(double x, double r, const double v[3], const double d[3])
+/* The weights at x of the velocity interpolant's six values (qd at the prior point, the start
+   and the end, then h qdd at the same): the Hermite interpolant (Newton's form on the nodes,
+   a node doubled where its acceleration is taken) through qd at x = -r (when r > 0), 0 and 1
+   and h qdd where `taken`: quintic with all three points and accelerations, cubic with the
+   step's ends alone; a weak acceleration left out lowers the degree by one. */
+static void rate_weights(double x, double r, const int taken[3], double weights[6])
 {
-    const double z[6] = {-r, -r, 0.0, 0.0, 1.0, 1.0};
-    double c[6] = {v[0], d[0], (v[1] - v[0]) / r, d[1], v[2] - v[1], d[2]};
-    for (int level = 2; level < 6; ++level) {
-        for (int k = 5; k >= level; --k) {
-            c[k] = (c[k] - c[k - 1]) / (z[k] - z[k - level]);
+    const double at[3] = {-r, 0.0, 1.0};
+    for (int m = 0; m < 6; ++m) { /* value m: qd at point m (m < 3), else h qdd at m - 3 */
+        double z[6], f[6], c[6];
+        int n = 0;
+        for (int p = r > 0.0 ? 0 : 1; p < 3; ++p) {
+            z[n] = at[p];
+            f[n] = m == p;
+            c[n++] = 0.0;
+            if (taken[p]) { /* the node doubled: its first difference is the derivative */
+                z[n] = at[p];
+                f[n] = m == p;
+                c[n++] = m == p + 3;
+            }
         }
+        c[0] = f[0];
+        for (int k = n - 1; k > 0; --k) {
+            if (z[k] != z[k - 1]) {
+                c[k] = (f[k] - f[k - 1]) / (z[k] - z[k - 1]);
+            }
+        }
+        for (int level = 2; level < n; ++level) {
+            for (int k = n - 1; k >= level; --k) {
+                c[k] = (c[k] - c[k - 1]) / (z[k] - z[k - level]);
+            }
+        }
+        double p = c[n - 1];
+        for (int k = n - 2; k >= 0; --k) {
+            p = p * (x - z[k]) + c[k];
+        }
+        weights[m] = p;
     }
-    double p = c[5];
-    for (int k = 4; k >= 0; --k) {
-        p = p * (x - z[k]) + c[k];
-    }
-    return p;
 }
 
 /* q at t on the quintic Hermite interpolant of the two accepted states (q, qd, qdd at both
    ends); qd on the quintic Hermite interpolant of (qd, qdd) at the step's ends and the
    accepted point before it, or after a start or an event on the cubic Hermite interpolant of
-   the step's ends (docs/method.md, 5). */
+   the step's ends, each without the accelerations marked weak (rate_weights; docs/method.md,
+   5). */
 void dep_interpolate(const double *data, double t0, double h, int nq, double t, double *q,
                      double *qd)
 {
-    double x = (t - t0) / h, r = data[12 * nq];
+    const double *tail = data + DEP_INTERPOLANT_ROWS * nq;
+    const int taken[3] = {tail[1] != 0.0, tail[2] != 0.0, tail[3] != 0.0};
+    double x = (t - t0) / h, r = tail[0];
     double x2 = x * x, x3 = x2 * x;
     double x4 = x3 * x, x5 = x3 * x2;
     double quintic[6] = {1 - 10 * x3 + 15 * x4 - 6 * x5, x - 6 * x3 + 8 * x4 - 3 * x5,
                          0.5 * (x2 - 3 * x3 + 3 * x4 - x5), 10 * x3 - 15 * x4 + 6 * x5,
                          -4 * x3 + 7 * x4 - 3 * x5, 0.5 * (x3 - 2 * x4 + x5)};
-    double cubic[4] = {2 * x3 - 3 * x2 + 1, x3 - 2 * x2 + x, 3 * x2 - 2 * x3, x3 - x2};
-    double through[6]; /* the rate's weights of v (prior, start, end), then of d, at x */
-    if (r > 0.0) {
-        for (int m = 0; m < 6; ++m) {
-            const double v[3] = {m == 0, m == 1, m == 2}, d[3] = {m == 3, m == 4, m == 5};
-            through[m] = rate_through_three(x, r, v, d);
-        }
+    double through[6]; /* the rate's weights of qd (prior, start, end), then of h qdd */
+    if (r > 0.0 || !taken[1] || !taken[2]) {
+        rate_weights(x, r, taken, through);
+    } else { /* the cubic Hermite of the step's ends */
+        through[0] = through[3] = 0.0;
+        through[1] = 2 * x3 - 3 * x2 + 1;
+        through[4] = x3 - 2 * x2 + x;
+        through[2] = 3 * x2 - 2 * x3;
+        through[5] = x3 - x2;
     }
     for (int j = 0; j < nq; ++j) {
         double value = 0.0;
@@ -249,11 +283,8 @@ void dep_interpolate(const double *data, double t0, double h, int nq, double t, 
                     + through[2] * data[8 * nq + j] + through[3] * data[11 * nq + j]
                     + through[4] * data[7 * nq + j] + through[5] * data[9 * nq + j];
         } else {
-            double rate = 0.0;
-            for (int k = 0; k < 4; ++k) {
-                rate += cubic[k] * data[(6 + k) * nq + j];
-            }
-            qd[j] = rate;
+            qd[j] = 0.0 + through[1] * data[6 * nq + j] + through[4] * data[7 * nq + j]
+                    + through[2] * data[8 * nq + j] + through[5] * data[9 * nq + j];
         }
     }
 }

@@ -138,11 +138,15 @@ extern const double dep_dopri_c[6], dep_dopri_a[6][5], dep_dopri_b[6];
 void dep_dopri_step(dep_rk_step *rk, dep_rhs_function rhs, void *context, double t0,
                     const double *y0, const double *k1, double h, double *scratch);
 void dep_dense_components(const dep_rk_step *rk, double t, int first, int count, double *out);
+/* The interpolant's data: DEP_INTERPOLANT_ROWS x nq + DEP_INTERPOLANT_TAIL doubles. An
+   acceleration marked weak (dep_acceleration_weak) is left out of the velocity interpolant. */
+#define DEP_INTERPOLANT_ROWS 12
+#define DEP_INTERPOLANT_TAIL 4
 void dep_interpolant_data(double h, const double *q0, const double *qd0, const double *qdd0,
-                          const double *q1, const double *qd1, const double *qdd1, int nq,
-                          double *data);
+                          int qdd0_weak, const double *q1, const double *qd1,
+                          const double *qdd1, int qdd1_weak, int nq, double *data);
 void dep_interpolant_prior(double *data, int nq, double h, double h_prior, const double *qd,
-                           const double *qdd);
+                           const double *qdd, int qdd_weak);
 void dep_interpolate(const double *data, double t0, double h, int nq, double t, double *q,
                      double *qd);
 
@@ -518,6 +522,7 @@ int dep_filtered_pass(dep_acceleration_work *w, dep_mobility_function filter, vo
 typedef struct dep_state {
     double t;
     double *q, *qd, *qdd, *lam, *work;
+    int qdd_weak; /* qdd from a nearly singular S (dep_acceleration_weak) */
 } dep_state;
 
 typedef struct dep_outcome {
@@ -653,6 +658,13 @@ void dep_stepper_work_move(dep_stepper *stepper, const double *q, const double *
                            double *work);
 void dep_stepper_set_rhs(dep_stepper *stepper, const dep_profile *profile,
                          const double *lam_end);
+/* 1 when the acceleration pass just made (its factor of S at hand) solved an S whose
+   smallest pivot is below DEP_WEAK_ACCELERATION of its diagonal: a singular position's
+   neighbourhood, where the pass deflates its weak directions and qdd along them carries the
+   velocity level's residual over their strength; the dense output then interpolates the
+   velocities without that acceleration (method/dopri.c). */
+#define DEP_WEAK_ACCELERATION 1e-5
+int dep_acceleration_weak(const dep_stepper *stepper);
 int dep_acceleration(dep_stepper *stepper, const double *q, const double *qd, double t,
                      double *lam, const double *J, long long jacobian_id, double *qdd,
                      dep_pass_report *report, dep_failure *failure);

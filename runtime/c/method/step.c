@@ -344,8 +344,8 @@ static void finish_step(dep_stepper *stepper, const dep_state *state, dep_outcom
         dep_system_dissipation(stepper->system, new->q, new->qd, new->t,
                                rk->K + 6 * (size_t)rk->n + 2 * nq);
     }
-    dep_interpolant_data(new->t - state->t, state->q, state->qd, state->qdd, new->q, new->qd,
-                         new->qdd, nq, outcome->data);
+    dep_interpolant_data(new->t - state->t, state->q, state->qd, state->qdd, state->qdd_weak,
+                         new->q, new->qd, new->qdd, new->qdd_weak, nq, outcome->data);
     outcome->rk = rk;
     outcome->J1 = stepper->final_position->J;
     outcome->J1_id = stepper->final_position->jacobian_id;
@@ -446,6 +446,7 @@ static int take_step(dep_stepper *stepper, const dep_state *state, const dep_pro
     status = dep_acceleration(stepper, new->q, new->qd, stepper->t1, new->lam,
                               stepper->final_position->J, stepper->final_position->jacobian_id,
                               new->qdd, &outcome->reports[2], failure);
+    new->qdd_weak = status == DEP_OK && dep_acceleration_weak(stepper);
     if (status == DEP_OK && stepper->implicit) { /* f at the new state: the next start's */
         memcpy(stepper->end_force, stepper->accel.f, (size_t)nq * sizeof(double));
         memcpy(stepper->end_state, new->q, (size_t)nq * sizeof(double));

@@ -34,13 +34,14 @@ void dep_state_copy(dep_state *to, const dep_state *from, int nq, int nc, int nd
     memcpy(to->qdd, from->qdd, (size_t)nq * sizeof(double));
     memcpy(to->lam, from->lam, (size_t)nc * sizeof(double));
     memcpy(to->work, from->work, (size_t)nd * sizeof(double));
+    to->qdd_weak = from->qdd_weak;
 }
 
 int dep_outcome_init(dep_outcome *outcome, int nq, int capacity, int nd, int nh,
                      dep_arena *arena)
 {
     memset(outcome, 0, sizeof *outcome);
-    outcome->data = dep_doubles(arena, 12 * (size_t)nq + 1);
+    outcome->data = dep_doubles(arena, DEP_INTERPOLANT_ROWS * (size_t)nq + DEP_INTERPOLANT_TAIL);
     outcome->friction = dep_doubles(arena, (size_t)nh + 1);
     return dep_state_init(&outcome->state, nq, capacity, nd, arena);
 }
@@ -294,4 +295,11 @@ int dep_acceleration(dep_stepper *stepper, const double *q, const double *qd, do
 {
     return dep_acceleration_pass(&stepper->accel, q, qd, t, J, jacobian_id, lam, qdd,
                                  stepper->constraint_tol, report, failure);
+}
+
+int dep_acceleration_weak(const dep_stepper *stepper)
+{
+    const dep_multipliers *mp = &stepper->mp;
+    return stepper->constraints->nc > 0 && mp->schur_factored
+           && mp->schur_min_pivot < DEP_WEAK_ACCELERATION;
 }

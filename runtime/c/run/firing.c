@@ -290,6 +290,7 @@ int dep_run_after_step(dep_run *run, int *stop)
         run->prior.t = run->state.t;
         memcpy(run->prior.qd, run->state.qd, (size_t)run->nq * sizeof(double));
         memcpy(run->prior.qdd, run->state.qdd, (size_t)run->nq * sizeof(double));
+        run->prior.qdd_weak = run->state.qdd_weak;
         dep_state_copy(&run->state, new, run->nq, run->cs.nc, run->nd);
         dep_history_add(&run->history, new->t, new->lam);
         dep_cs_transpose_times(&run->cs, run->outcome.J1, new->lam, run->force_now);

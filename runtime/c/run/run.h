@@ -222,6 +222,7 @@ typedef struct dep_prior {
     int valid;
     double t;
     double *qd, *qdd;
+    int qdd_weak;
 } dep_prior;
 
 /* The calls that brought an open run (dep_open) where it is: its parameters and settings at

@@ -96,6 +96,7 @@ int dep_run_restart(dep_run *run, double t, const double *q, const double *qd,
     if (status == DEP_PASS_FAILED) {
         return dep_run_pass_error(run, &failure, t);
     }
+    s->qdd_weak = dep_acceleration_weak(stepper);
     dep_tally_observe(&run->tally, &report);
     dep_history_reset(&run->history, t, s->lam, run->cs.nc);
     dep_cs_transpose_times(&run->cs, stepper->restart_J, s->lam, run->force_now);

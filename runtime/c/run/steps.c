@@ -80,7 +80,8 @@ void dep_run_attach_prior(const dep_run *run, dep_outcome *end)
 {
     if (run->prior.valid) {
         dep_interpolant_prior(end->data, run->nq, end->state.t - run->state.t,
-                              run->state.t - run->prior.t, run->prior.qd, run->prior.qdd);
+                              run->state.t - run->prior.t, run->prior.qd, run->prior.qdd,
+                              run->prior.qdd_weak);
     }
 }
 
