@@ -265,7 +265,7 @@ void dep_interpolate(const double *data, double t0, double h, int nq, double t, 
     double through[6]; /* the rate's weights of qd (prior, start, end), then of h qdd */
     if (r > 0.0 || !taken[1] || !taken[2]) {
         rate_weights(x, r, taken, through);
-    } else { /* the cubic Hermite of the step's ends */
+    } else { /* the cubic Hermite of the step's ends, its weights written out */
         through[0] = through[3] = 0.0;
         through[1] = 2 * x3 - 3 * x2 + 1;
         through[4] = x3 - 2 * x2 + x;
@@ -283,6 +283,7 @@ void dep_interpolate(const double *data, double t0, double h, int nq, double t, 
                     + through[2] * data[8 * nq + j] + through[3] * data[11 * nq + j]
                     + through[4] * data[7 * nq + j] + through[5] * data[9 * nq + j];
         } else {
+            /* (summed from 0.0 in the rows' order: a sum of signed zeros reads +0) */
             qd[j] = 0.0 + through[1] * data[6 * nq + j] + through[4] * data[7 * nq + j]
                     + through[2] * data[8 * nq + j] + through[5] * data[9 * nq + j];
         }
