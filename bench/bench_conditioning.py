@@ -43,6 +43,21 @@ several release angles, each N and tol also gets the errors' median and largest 
 how many runs kept both within 10 tol: the errors are phase errors, and one release is one
 draw of how they scatter with the crossings' step sequence.
 
+Beside each chain, two runs of the same motion without a singular position, which tell what
+the singular positions cost from what any integration at that tol leaves over 20 s:
+- "pendulum": one body on one hinge whose angle obeys the chain's one-angle ODE (mass
+  (3N+1)^2/(4N+1) kg, its centre (3N+1)/(2 mass) m from the hinge, its inertia about the
+  hinge I_eff; the weight's moment (N+1)/2 + N kg m times g), written in depsim's language
+  and run by the same program at the same tol and release. Its `tip` is the point 1 m from
+  the hinge along the body, so its errors are the crank tip's.
+- "DOPRI5": the one-angle ODE itself by scipy's RK45 (Dormand-Prince 5(4)) at
+  rtol = atol = tol, on the same output times; "DOPRI5=" the same at the tolerance where it
+  takes as many steps as the pendulum (its errors still in units of the run's tol).
+The chain against the pendulum is what the singular positions cost; the pendulum against
+DOPRI5= what depsim's method costs a step on a motion with no singular position at all (the
+multipliers prescribed over each step: docs/method.md, 9).
+Each prints its steps, the same errors against the reference and the energy drift.
+
 Every run has a timeout (--timeout, 900 s), reported as such. Programs are built with
 `depsim compile --target c` and `make` into --build (default a temporary folder); set
 DEPSIM_CACHE to keep the generated code of big chains between invocations.
@@ -107,6 +122,27 @@ def parallelogram_model(n: int) -> str:
               "output tip_y = c0.b.y", "output tip_vx = c0.b.vx", "output tip_vy = c0.b.vy",
               f"output kinetic = {kinetic(bars, '1 kg', '1 kg * (1 m)^2 / 12')}",
               f"output potential = {potential(bars, '1 kg')}"]
+    return "\n".join(lines) + "\n"
+
+
+def pendulum_model(n: int) -> str:
+    """One body on one hinge whose angle obeys the n-parallelogram chain's one-angle ODE (see
+    the module's text); `tip` 1 m from the hinge, outputs named as parallelogram_model's."""
+    mass = (3 * n + 1) ** 2 / (4 * n + 1)  # kg: any mass above (3n+1)^2/(4 I_eff) would do
+    centre = (3 * n + 1) / (2 * mass)  # m from the hinge: mass * centre = (n+1)/2 + n kg m
+    inertia = (4 * n + 1) / 3 - mass * centre ** 2  # kg m^2 about the centre: I_eff about the hinge
+    lines = [f'model pend{n} "the one-angle motion of {n} parallelograms, one body"',
+             "gravity = (0, -9.81) m/s^2",
+             f"body c0 {{ mass = {mass!r} kg; inertia = {inertia!r} kg*m^2; "
+             f"point a = ({-centre!r}, 0) m; point tip = ({1 - centre!r}, 0) m }}",
+             "hinge g0 joins ground.origin to c0.a",
+             "initial { g0 = 10 deg; g0.rate = 0 rad/s }",
+             "simulate { t_end = 20 s; tol = 1e-8; dt_out = 0.01 s }",
+             "output crank = g0", "output rate = g0.rate", "output tip_x = c0.tip.x",
+             "output tip_y = c0.tip.y", "output tip_vx = c0.tip.vx", "output tip_vy = c0.tip.vy",
+             f"output kinetic = {mass!r} kg / 2 * (c0.vx^2 + c0.vy^2) + {inertia!r} kg*m^2 / 2 "
+             "* c0.omega^2 / rad^2",
+             f"output potential = {mass!r} kg * {G} m/s^2 * c0.y"]
     return "\n".join(lines) + "\n"
 
 
@@ -251,70 +287,134 @@ def chain_row(n: int, length: float, tol: float, run: Run) -> str:
 
 # --- parallelograms --------------------------------------------------------------------------
 
-def parallelogram_reference(n: int, times: np.ndarray, release: float = 10.0
-                            ) -> tuple[np.ndarray, np.ndarray]:
-    """The crank angle and rate of the one-angle ODE at the given times (m = L = 1), released
-    at rest `release` deg above the horizontal."""
+def parallelogram_constants(n: int) -> tuple[float, float]:
+    """I_eff (kg m^2) and the weight's moment W (N m, V = W sin(theta)) of the one-angle ODE
+    I_eff theta'' = -W cos(theta) (m = L = 1)."""
+    return (n + 1) / 3 + n, ((n + 1) / 2 + n) * G
+
+
+def parallelogram_reference(n: int, times: np.ndarray, release: float = 10.0, tol: float = 0.0
+                            ) -> tuple[np.ndarray, np.ndarray, int]:
+    """The crank angle and rate of the one-angle ODE at the given times, released at rest
+    `release` deg above the horizontal, and the accepted steps: the converged reference
+    (DOP853, rtol 1e-13) without tol, scipy's RK45 at rtol = atol = tol with it."""
     from scipy.integrate import solve_ivp
 
-    inertia = (n + 1) / 3 + n
-    weight = (n + 1) * G / 2 + n * G  # V = weight * sin(theta)
+    inertia, weight = parallelogram_constants(n)
 
     def rhs(t, y):
         return [y[1], -weight * np.cos(y[0]) / inertia]
 
-    sol = solve_ivp(rhs, (0.0, times[-1]), [np.radians(release), 0.0], method="DOP853",
-                    rtol=1e-13, atol=1e-14, t_eval=times)
-    return sol.y[0], sol.y[1]
+    settings = dict(method="RK45", rtol=tol, atol=tol) if tol else \
+        dict(method="DOP853", rtol=1e-13, atol=1e-14)
+    sol = solve_ivp(rhs, (0.0, times[-1]), [np.radians(release), 0.0], t_eval=times,
+                    **settings)
+    stages = 6 if tol else 12  # right-side evaluations a step (FSAL for RK45)
+    return sol.y[0], sol.y[1], (sol.nfev - 2) // stages
 
 
 def tip_errors(n: int, table: dict, release: float = 10.0) -> tuple[float, float]:
     """The first crank's tip: largest position and velocity errors against the reference."""
-    theta, omega = parallelogram_reference(n, table["t"], release)
+    theta, omega, _ = parallelogram_reference(n, table["t"], release)
     position = np.hypot(table["tip_x"] - np.cos(theta), table["tip_y"] - np.sin(theta))
     velocity = np.hypot(table["tip_vx"] + omega * np.sin(theta),
                         table["tip_vy"] - omega * np.cos(theta))
     return float(position.max()), float(velocity.max())
 
 
+def dopri_table(n: int, tol: float, release: float, t_end: float) -> tuple[dict, int]:
+    """The one-angle ODE by RK45 at tol as an output table (the crank tip, the energies), and
+    its steps."""
+    times = np.arange(0.0, t_end + 1e-9, 0.01)
+    theta, omega, steps = parallelogram_reference(n, times, release, tol)
+    inertia, weight = parallelogram_constants(n)
+    return {"t": times, "tip_x": np.cos(theta), "tip_y": np.sin(theta),
+            "tip_vx": -omega * np.sin(theta), "tip_vy": omega * np.cos(theta),
+            "kinetic": 0.5 * inertia * omega ** 2, "potential": weight * np.sin(theta)}, steps
+
+
+def equal_steps(n: int, steps: int, release: float, t_end: float) -> float | None:
+    """The RK45 tolerance at which the one-angle ODE takes `steps` accepted steps, within 2 %
+    (secants in log steps against log tol, where the steps follow a power of tol); None
+    without steps."""
+    if steps <= 0:
+        return None
+    times = np.array([0.0, t_end])
+    points = []
+    tol = 1e-10
+    for _ in range(12):
+        taken = parallelogram_reference(n, times, release, tol)[2]
+        if abs(taken - steps) <= 0.02 * steps:
+            break
+        points.append((math.log(tol), math.log(taken)))
+        slope = -0.2  # DOPRI5's steps go as tol^(-1/5)
+        if len(points) > 1 and points[-1][0] != points[-2][0]:
+            slope = (points[-1][1] - points[-2][1]) / (points[-1][0] - points[-2][0])
+            slope = min(-0.05, max(-1.0, slope))
+        tol = math.exp(points[-1][0] + (math.log(steps) - points[-1][1]) / slope)
+        tol = min(1e-3, max(1e-15, tol))
+    return tol
+
+
 def parallelogram_table(args, folder: Path) -> None:
     releases = ", ".join(f"{a:g}" for a in args.releases)
     print(f"\nParallelogram chains, 0-{args.t_end:g} s, released at rest {releases} deg above "
-          f"the singular position; timeout {args.timeout:g} s")
-    print(f"{'N':>4} {'tol':>6} {'deg':>4} {'result':<10} {'accepted':>9} {'rej+retried':>11} "
-          f"{'pos err m':>10} {'/tol':>9} {'vel err m/s':>11} {'/tol':>9} "
+          f"the singular position; timeout {args.timeout:g} s; beside each chain the same "
+          "motion without a singular position: a pendulum (one body on a hinge, depsim) and "
+          "the one-angle ODE by DOPRI5 (scipy's RK45, rtol = atol = tol; DOPRI5=: at the tol where "
+          "it takes the pendulum's steps)")
+    print(f"{'N':>4} {'tol':>6} {'deg':>4} {'run':<8} {'result':<10} {'accepted':>9} "
+          f"{'rej+retried':>11} {'pos err m':>10} {'/tol':>9} {'vel err m/s':>11} {'/tol':>9} "
           f"{'dE/KEmax/tol':>13} {'wall (s)':>9}")
     failures = []
     for n in args.counts:
-        program, seconds = build(parallelogram_model(n), f"para{n}", folder)
+        programs = {"chain": build(parallelogram_model(n), f"para{n}", folder)[0],
+                    "pendulum": build(pendulum_model(n), f"pend{n}", folder)[0]}
         for tol in args.tols:
-            errors = []
+            errors = {"chain": [], "pendulum": [], "DOPRI5": [], "DOPRI5=": []}
             for release in args.releases:
-                run = run_timed(program, tol, args.t_end,
-                                {"g0.initial_angle": math.radians(release)},
-                                folder / "para.csv", args)
-                row, error = parallelogram_row(n, tol, release, run)
-                print(row, flush=True)
-                errors.append(error)
-                if run.status != "ok":
-                    failures.append((f"N={n} tol={tol:g} release={release:g} deg", run))
+                runs = {}
+                for kind, program in programs.items():
+                    run = run_timed(program, tol, args.t_end,
+                                    {"g0.initial_angle": math.radians(release)},
+                                    folder / f"{kind}.csv", args)
+                    row, error = parallelogram_row(n, tol, release, kind, run)
+                    print(row, flush=True)
+                    errors[kind].append(error)
+                    runs[kind] = run
+                    if run.status != "ok":
+                        failures.append((f"{kind} N={n} tol={tol:g} release={release:g} deg",
+                                         run))
+                pendulum = runs["pendulum"]
+                same = pendulum.accepted if pendulum.status == "ok" else 0
+                for kind, at in (("DOPRI5", tol), ("DOPRI5=", equal_steps(n, same, release,
+                                                                         args.t_end))):
+                    if at is None:
+                        continue
+                    table, steps = dopri_table(n, at, release, args.t_end)
+                    row, error = parallelogram_row(n, tol, release, kind,
+                                                   Run("ok", accepted=steps, table=table))
+                    print(row, flush=True)
+                    errors[kind].append(error)
             if len(args.releases) > 1:
-                print(spread_row(errors))
+                for kind, found in errors.items():
+                    print(f"      {kind:<8} " + spread_row(found))
     failure_lines(failures)
 
 
-def parallelogram_row(n: int, tol: float, release: float, run: Run
+def parallelogram_row(n: int, tol: float, release: float, kind: str, run: Run
                       ) -> tuple[str, tuple[float, float] | None]:
     """The table's row, and the position and velocity errors in tol (None: no result)."""
-    row = f"{n:>4} {tol:>6.0e} {release:>4g} {outcome(run):<10}"
+    row = f"{n:>4} {tol:>6.0e} {release:>4g} {kind:<8} {outcome(run):<10}"
     if run.status != "ok":
         return row + f" {'':>9} {'':>11} {'':>10} {'':>9} {'':>11} {'':>9} {'':>13} " \
                      f"{run.wall:>9.3f}", None
     position, velocity = tip_errors(n, run.table, release)
     drift = energy_drift(run.table) / tol
+    wall = f"{run.wall:>9.3f}" if run.wall else f"{'':>9}"
     return (row + f" {run.accepted:>9} {run.rejected + run.retried:>11} {position:>10.2e} "
             f"{position / tol:>9.3g} {velocity:>11.2e} {velocity / tol:>9.3g} "
-            f"{drift:>13.3g} {run.wall:>9.3f}"), (position / tol, velocity / tol)
+            f"{drift:>13.3g} {wall}"), (position / tol, velocity / tol)
 
 
 def spread_row(errors: list[tuple[float, float] | None]) -> str:
@@ -322,10 +422,10 @@ def spread_row(errors: list[tuple[float, float] | None]) -> str:
     within 10 tol."""
     done = [e for e in errors if e is not None]
     if not done:
-        return "      no run completed"
+        return "no run completed"
     position, velocity = np.array(done).T
     within = sum(p <= 10 and v <= 10 for p, v in done)
-    return (f"      over {len(errors)} releases: position median {np.median(position):.3g}, "
+    return (f"over {len(errors)} releases: position median {np.median(position):.3g}, "
             f"largest {position.max():.3g} tol; velocity median {np.median(velocity):.3g}, "
             f"largest {velocity.max():.3g} tol; within 10 tol: {within} of {len(errors)}")
 
